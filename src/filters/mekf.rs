@@ -1,0 +1,225 @@
+//! Multiplicative extended Kalman filter (Crassidis & Junkins, *Optimal Estimation of Dynamic
+//! Systems*, ch. 7; ALGORITHMS.md §3). The baseline every other filter is compared against.
+//!
+//! Error state `x = [δα; Δβ]` (rad, rad/s), `δq = q ⊗ q̂⁻¹ ≈ [δα/2; 1]`.
+
+use super::{
+    is_spd, symmetrize, Diagnostics, Estimate, FilterConfig, FilterCore, FilterError, FilterSpec,
+    InitialState,
+};
+use crate::attitude::{skew, Quaternion};
+use crate::sensors::{GyroNoise, VectorObservation};
+use nalgebra::{Matrix3, Matrix3x6, Matrix6, Matrix6x3, Vector3, Vector6};
+
+/// Rotation angle below which `Φ` uses Taylor series (no division by `‖ω̂‖`).
+const SMALL_ROTATION_RAD: f64 = 1e-5;
+
+/// The discrete error-state transition `Φ = expm(F Δt)`, `F = [[−[ω̂×], −I], [0, 0]]`:
+/// `Φ₁₁ = I − [ω̂×] sin θ/‖ω̂‖ + [ω̂×]² (1 − cos θ)/‖ω̂‖²`,
+/// `Φ₁₂ = [ω̂×] (1 − cos θ)/‖ω̂‖² − I Δt − [ω̂×]² (θ − sin θ)/‖ω̂‖³`, `Φ₂₁ = 0`, `Φ₂₂ = I`, `θ = ‖ω̂‖Δt`.
+pub fn transition_matrix(omega_hat_rad_s: &Vector3<f64>, dt_s: f64) -> Matrix6<f64> {
+    let w = omega_hat_rad_s.norm();
+    let theta = w * dt_s;
+    let wx = skew(omega_hat_rad_s);
+    let wx2 = wx * wx;
+    // c1 = sin θ/‖ω‖, c2 = (1 − cos θ)/‖ω‖², c3 = (θ − sin θ)/‖ω‖³, each with a series near θ = 0.
+    let (c1, c2, c3) = if theta < SMALL_ROTATION_RAD {
+        let t2 = dt_s * dt_s;
+        (
+            dt_s * (1.0 - theta * theta / 6.0),
+            t2 / 2.0 * (1.0 - theta * theta / 12.0),
+            t2 * dt_s / 6.0 * (1.0 - theta * theta / 20.0),
+        )
+    } else {
+        (
+            theta.sin() / w,
+            (1.0 - theta.cos()) / (w * w),
+            (theta - theta.sin()) / (w * w * w),
+        )
+    };
+    let phi11 = Matrix3::identity() - wx * c1 + wx2 * c2;
+    let phi12 = wx * c2 - Matrix3::identity() * dt_s - wx2 * c3;
+    let mut phi = Matrix6::identity();
+    phi.fixed_view_mut::<3, 3>(0, 0).copy_from(&phi11);
+    phi.fixed_view_mut::<3, 3>(0, 3).copy_from(&phi12);
+    phi
+}
+
+/// The discrete process noise of the Farrenkopf model over `Δt`:
+/// `Q = [[(σ_v² Δt + σ_u² Δt³/3) I, −(σ_u² Δt²/2) I], [−(σ_u² Δt²/2) I, σ_u² Δt I]]`.
+pub fn process_noise(gyro: &GyroNoise, dt_s: f64) -> Matrix6<f64> {
+    let (sv2, su2) = (gyro.sigma_v * gyro.sigma_v, gyro.sigma_u * gyro.sigma_u);
+    let q11 = sv2 * dt_s + su2 * dt_s.powi(3) / 3.0;
+    let q12 = -su2 * dt_s * dt_s / 2.0;
+    let q22 = su2 * dt_s;
+    let mut q = Matrix6::zeros();
+    for i in 0..3 {
+        q[(i, i)] = q11;
+        q[(i, i + 3)] = q12;
+        q[(i + 3, i)] = q12;
+        q[(i + 3, i + 3)] = q22;
+    }
+    q
+}
+
+/// The measurement Jacobian of one vector observation about the estimate: `H = [[A(q̂) r ×], 0₃]`,
+/// from `b = A(δq) A(q̂) r ≈ A(q̂) r + [A(q̂) r ×] δα`.
+pub fn measurement_jacobian(predicted_body: &Vector3<f64>) -> Matrix3x6<f64> {
+    let mut h = Matrix3x6::zeros();
+    h.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&skew(predicted_body));
+    h
+}
+
+/// The result of one Joseph-form update with a single vector observation.
+pub struct ScalarUpdate {
+    pub gain: Matrix6x3<f64>,
+    pub covariance: Matrix6<f64>,
+    /// `νᵀ S⁻¹ ν` of the innovation given.
+    pub nis: f64,
+    pub correction: Vector6<f64>,
+}
+
+/// One Kalman update with `H = [[b̂×], 0]`, `R = σ² I`, solved by Cholesky (no inverse), Joseph form
+/// `P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ`. `innovation` may be `None` when only the covariance is
+/// wanted (the Cramér–Rao recursion).
+pub fn joseph_update(
+    p: &Matrix6<f64>,
+    predicted_body: &Vector3<f64>,
+    sigma: f64,
+    innovation: Option<&Vector3<f64>>,
+) -> Option<ScalarUpdate> {
+    let h = measurement_jacobian(predicted_body);
+    let r = sigma * sigma;
+    let pht = p * h.transpose();
+    let s = h * pht + Matrix3::identity() * r;
+    let chol = s.cholesky()?;
+    // K = P Hᵀ S⁻¹  ⇔  S Kᵀ = H P.
+    let gain = chol.solve(&pht.transpose()).transpose();
+    let ikh = Matrix6::identity() - gain * h;
+    let mut covariance = ikh * p * ikh.transpose() + gain * gain.transpose() * r;
+    symmetrize(&mut covariance);
+    let (nis, correction) = match innovation {
+        Some(nu) => (nu.dot(&chol.solve(nu)), gain * nu),
+        None => (0.0, Vector6::zeros()),
+    };
+    Some(ScalarUpdate {
+        gain,
+        covariance,
+        nis,
+        correction,
+    })
+}
+
+/// The MEKF state.
+#[derive(Clone, Debug)]
+pub struct Mekf {
+    gyro: GyroNoise,
+    q: Quaternion,
+    bias: Vector3<f64>,
+    p: Matrix6<f64>,
+    diagnostics: Diagnostics,
+}
+
+impl Mekf {
+    pub fn new(config: &FilterConfig, initial: &InitialState) -> Result<Self, FilterError> {
+        let q = initial
+            .q
+            .normalized()
+            .ok_or_else(|| FilterError::InvalidConfig("initial quaternion has no direction".into()))?;
+        let mut p = Matrix6::zeros();
+        for i in 0..3 {
+            p[(i, i)] = initial.sigma_att_rad[i].powi(2);
+            p[(i + 3, i + 3)] = initial.bias_sigma_rad_s[i].powi(2);
+        }
+        if !is_spd(&p) || !initial.bias_rad_s.iter().all(|b| b.is_finite()) {
+            return Err(FilterError::InvalidConfig(
+                "initial sigmas must be positive and finite".into(),
+            ));
+        }
+        Ok(Mekf {
+            gyro: config.gyro,
+            q,
+            bias: initial.bias_rad_s,
+            p,
+            diagnostics: Diagnostics::default(),
+        })
+    }
+
+    pub fn covariance(&self) -> &Matrix6<f64> {
+        &self.p
+    }
+}
+
+impl FilterCore for Mekf {
+    fn spec(&self) -> FilterSpec {
+        FilterSpec {
+            kind: super::FilterKind::Mekf,
+            fiducial: None,
+        }
+    }
+
+    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+        let omega_hat = omega_meas_rad_s - self.bias;
+        let phi = transition_matrix(&omega_hat, dt_s);
+        let mut p = phi * self.p * phi.transpose() + process_noise(&self.gyro, dt_s);
+        symmetrize(&mut p);
+        let q = self.q.propagate(&omega_hat, dt_s);
+        if !q.is_finite() || !p.iter().all(|x| x.is_finite()) {
+            return Err(FilterError::NonFinite { step: "propagation" });
+        }
+        self.q = q;
+        self.p = p;
+        self.diagnostics.propagations += 1;
+        Ok(())
+    }
+
+    /// Processes the observations one at a time about the same linearisation point `q̂⁻` with the
+    /// accumulated correction, which is algebraically the batch update of the stacked observations
+    /// but needs only 3×3 solves and no allocation.
+    fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError> {
+        let a = self.q.attitude_matrix();
+        let mut p = self.p;
+        let mut dx = Vector6::zeros();
+        let mut nis = 0.0;
+        for (index, o) in observations.iter().enumerate() {
+            let predicted = a * o.reference;
+            let h = measurement_jacobian(&predicted);
+            let nu = o.body - predicted - h * dx;
+            let u = joseph_update(&p, &predicted, o.sigma, Some(&nu))
+                .ok_or(FilterError::SingularInnovation { index })?;
+            dx += u.correction;
+            p = u.covariance;
+            nis += u.nis;
+        }
+        let dalpha = Vector3::new(dx[0], dx[1], dx[2]);
+        let q = Quaternion::from_rotation_vector(&dalpha)
+            .compose(&self.q)
+            .normalized()
+            .ok_or(FilterError::NonFinite { step: "update" })?;
+        let bias = self.bias + Vector3::new(dx[3], dx[4], dx[5]);
+        if !q.is_finite() || !bias.iter().all(|b| b.is_finite()) {
+            return Err(FilterError::NonFinite { step: "update" });
+        }
+        if !is_spd(&p) {
+            return Err(FilterError::NotPositiveDefinite { step: "update" });
+        }
+        self.q = q;
+        self.bias = bias;
+        self.p = p;
+        self.diagnostics.updates += 1;
+        self.diagnostics.nis = Some(nis);
+        self.diagnostics.nis_dof = Some(3 * observations.len());
+        Ok(())
+    }
+
+    fn estimate(&self) -> Estimate {
+        Estimate {
+            t_s: 0.0,
+            q: self.q.canonical(),
+            bias_rad_s: self.bias,
+            covariance: self.p,
+            diagnostics: self.diagnostics.clone(),
+        }
+    }
+}

@@ -1,0 +1,366 @@
+//! The filter interface shared by every estimator of this project, and the filters behind it.
+//!
+//! A filter consumes a time-ordered stream of [`Measurement`]s: gyro samples (a rate held until the
+//! next sample) and vector-observation sets, possibly at different rates. For each input it propagates
+//! from its current time to the input's time with the held rate, then uses the input. The time handling
+//! lives once, in [`Driver`]; a filter implements only [`FilterCore`] (propagate over an interval, update
+//! with a set of observations, report its estimate).
+//!
+//! Contract of [`FilterCore`]: a method that returns `Err` leaves the filter exactly as it was, so a bad
+//! input or a numerical failure never poisons the state.
+
+pub mod mekf;
+
+use crate::attitude::Quaternion;
+use crate::sensors::{GyroNoise, Measurement, VectorObservation};
+use nalgebra::{Matrix6, Vector3};
+use std::fmt;
+use std::str::FromStr;
+use thiserror::Error;
+
+pub use mekf::Mekf;
+
+/// Which estimator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FilterKind {
+    /// Multiplicative extended Kalman filter (the baseline).
+    Mekf,
+    /// UnScented QUaternion Estimator.
+    Usque,
+    /// Quaternion particle filter with MRP local errors.
+    Qpf,
+}
+
+/// How the fiducial quaternion that links the global quaternion and the local error space is chosen
+/// (the subject of the seed note).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Fiducial {
+    /// The previous estimate propagated like an EKF (seed Eq. 1; original USQUE and QPF).
+    Propagated,
+    /// The MMSE weighted quaternion average of the sigma points or particles (seed Eqs. 3–6).
+    Average,
+}
+
+/// A filter and, for the sampling filters, its fiducial: `mekf`, `usque:propagated`, `qpf:average`, …
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct FilterSpec {
+    pub kind: FilterKind,
+    /// `None` for the MEKF, which has no fiducial.
+    pub fiducial: Option<Fiducial>,
+}
+
+impl FilterKind {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            FilterKind::Mekf => "mekf",
+            FilterKind::Usque => "usque",
+            FilterKind::Qpf => "qpf",
+        }
+    }
+}
+
+impl Fiducial {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Fiducial::Propagated => "propagated",
+            Fiducial::Average => "average",
+        }
+    }
+}
+
+impl fmt::Display for FilterSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.fiducial {
+            None => write!(f, "{}", self.kind.as_str()),
+            Some(fid) => write!(f, "{}:{}", self.kind.as_str(), fid.as_str()),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Error, PartialEq)]
+#[error("unknown filter '{0}': expected mekf, usque[:propagated|:average] or qpf[:propagated|:average]")]
+pub struct ParseFilterSpecError(pub String);
+
+impl FromStr for FilterSpec {
+    type Err = ParseFilterSpecError;
+
+    /// `usque` and `qpf` without a fiducial mean the averaged fiducial, this project's default.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = || ParseFilterSpecError(s.to_string());
+        let (kind, fid) = match s.split_once(':') {
+            Some((k, f)) => (k, Some(f)),
+            None => (s, None),
+        };
+        let kind = match kind {
+            "mekf" => FilterKind::Mekf,
+            "usque" => FilterKind::Usque,
+            "qpf" => FilterKind::Qpf,
+            _ => return Err(err()),
+        };
+        let fiducial = match (kind, fid) {
+            (FilterKind::Mekf, None) => None,
+            (FilterKind::Mekf, Some(_)) => return Err(err()),
+            (_, None | Some("average")) => Some(Fiducial::Average),
+            (_, Some("propagated")) => Some(Fiducial::Propagated),
+            _ => return Err(err()),
+        };
+        Ok(FilterSpec { kind, fiducial })
+    }
+}
+
+/// Settings common to every filter, plus the sampling filters' own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilterConfig {
+    pub spec: FilterSpec,
+    /// The gyro noise the filter assumes.
+    pub gyro: GyroNoise,
+    /// Particle count of the QPF.
+    pub particles: usize,
+}
+
+impl FilterConfig {
+    pub fn new(spec: FilterSpec, gyro: GyroNoise) -> Self {
+        FilterConfig {
+            spec,
+            gyro,
+            particles: 1000,
+        }
+    }
+}
+
+/// What a filter is told about the vehicle at the start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitialState {
+    /// Start time, s; `None` takes the time of the first measurement.
+    pub t_s: Option<f64>,
+    pub q: Quaternion,
+    /// 1σ of the attitude error about each body axis, rad.
+    pub sigma_att_rad: Vector3<f64>,
+    pub bias_rad_s: Vector3<f64>,
+    pub bias_sigma_rad_s: Vector3<f64>,
+    /// Nothing is known about the attitude: a particle filter draws it uniformly; a Kalman filter uses
+    /// `q` with `sigma_att_rad`.
+    pub uniform_attitude: bool,
+}
+
+/// What a filter knows about itself. Fields a filter does not have are `None`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Diagnostics {
+    /// Gyro propagations and vector updates processed.
+    pub propagations: u64,
+    pub updates: u64,
+    /// Normalised innovation squared of the last update and its degrees of freedom (Kalman filters).
+    pub nis: Option<f64>,
+    pub nis_dof: Option<usize>,
+    /// Effective sample size `1/Σwᵢ²` of the last update (particle filter).
+    pub ess: Option<f64>,
+    /// Concentration `λ₁/Σw` and eigen-gap of the last quaternion average (averaged fiducial).
+    pub concentration: Option<f64>,
+    pub eigen_gap: Option<f64>,
+    /// Progressive-correction stages of the last update and resamplings so far (particle filter).
+    pub pc_stages: Option<u32>,
+    pub resamples: Option<u64>,
+    /// Times the averaged fiducial was undecidable and the propagated one was used instead.
+    pub fiducial_fallbacks: Option<u64>,
+}
+
+/// A filter's estimate at its current time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    pub t_s: f64,
+    pub q: Quaternion,
+    pub bias_rad_s: Vector3<f64>,
+    /// Covariance of `[δα (rad, body frame); δβ (rad/s)]`.
+    pub covariance: Matrix6<f64>,
+    pub diagnostics: Diagnostics,
+}
+
+impl Estimate {
+    /// 1σ of the attitude error per body axis, rad.
+    pub fn sigma_att_rad(&self) -> Vector3<f64> {
+        Vector3::new(
+            self.covariance[(0, 0)].max(0.0).sqrt(),
+            self.covariance[(1, 1)].max(0.0).sqrt(),
+            self.covariance[(2, 2)].max(0.0).sqrt(),
+        )
+    }
+}
+
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum FilterError {
+    #[error("measurement at t = {t_s} s is older than the filter time {filter_t_s} s")]
+    OutOfOrder { t_s: f64, filter_t_s: f64 },
+    #[error("invalid measurement: {0}")]
+    InvalidMeasurement(String),
+    #[error("invalid configuration: {0}")]
+    InvalidConfig(String),
+    #[error("innovation covariance is not positive definite (observation {index})")]
+    SingularInnovation { index: usize },
+    #[error("covariance lost positive definiteness after {step}")]
+    NotPositiveDefinite { step: &'static str },
+    #[error("non-finite state after {step}")]
+    NonFinite { step: &'static str },
+    #[error("all particle weights vanished")]
+    WeightsVanished,
+}
+
+/// What every filter implements; the time bookkeeping is [`Driver`]'s.
+pub trait FilterCore: Send {
+    fn spec(&self) -> FilterSpec;
+    /// Propagates over `dt_s > 0` with the measured rate `omega_meas_rad_s` (the gyro bias is the
+    /// filter's to remove).
+    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError>;
+    /// Updates with the observations taken at the current time.
+    fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError>;
+    /// The estimate (its `t_s` is filled in by the driver).
+    fn estimate(&self) -> Estimate;
+}
+
+/// Object-safe interface every filter is used through.
+pub trait AttitudeFilter: Send {
+    fn spec(&self) -> FilterSpec;
+    /// The filter's time, s (`None` before the first measurement when no start time was given).
+    fn time_s(&self) -> Option<f64>;
+    /// Propagates to the measurement's time, then uses it.
+    fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError>;
+    fn estimate(&self) -> Estimate;
+}
+
+/// Holds the time and the last gyro rate, and drives a [`FilterCore`].
+pub struct Driver<F: FilterCore> {
+    core: F,
+    t_s: Option<f64>,
+    /// The rate measured by the last gyro sample, held until the next. Before the first sample the
+    /// filter propagates with its bias estimate only (zero estimated rate) and its process noise.
+    omega_meas_rad_s: Option<Vector3<f64>>,
+}
+
+impl<F: FilterCore> Driver<F> {
+    pub fn new(core: F, t0_s: Option<f64>) -> Self {
+        Driver {
+            core,
+            t_s: t0_s,
+            omega_meas_rad_s: None,
+        }
+    }
+
+    pub fn core(&self) -> &F {
+        &self.core
+    }
+
+    fn propagate_to(&mut self, t_s: f64) -> Result<(), FilterError> {
+        let Some(now) = self.t_s else {
+            self.t_s = Some(t_s);
+            return Ok(());
+        };
+        if t_s < now {
+            return Err(FilterError::OutOfOrder {
+                t_s,
+                filter_t_s: now,
+            });
+        }
+        let dt = t_s - now;
+        if dt > 0.0 {
+            let omega = match self.omega_meas_rad_s {
+                Some(w) => w,
+                None => self.core.estimate().bias_rad_s,
+            };
+            self.core.propagate(&omega, dt)?;
+            self.t_s = Some(t_s);
+        }
+        Ok(())
+    }
+}
+
+fn check_finite(values: impl IntoIterator<Item = f64>, what: &str) -> Result<(), FilterError> {
+    if values.into_iter().all(f64::is_finite) {
+        Ok(())
+    } else {
+        Err(FilterError::InvalidMeasurement(format!(
+            "{what} is not finite"
+        )))
+    }
+}
+
+/// Checks a measurement before any state changes.
+pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
+    check_finite([measurement.t_s()], "time")?;
+    match measurement {
+        Measurement::Gyro(g) => check_finite(g.omega_body_rad_s.iter().copied(), "gyro rate"),
+        Measurement::Vectors(set) => {
+            for (i, o) in set.observations.iter().enumerate() {
+                check_finite(o.body.iter().copied(), "body vector")?;
+                check_finite(o.reference.iter().copied(), "reference vector")?;
+                if !(o.sigma.is_finite() && o.sigma > 0.0) {
+                    return Err(FilterError::InvalidMeasurement(format!(
+                        "observation {i}: sigma must be positive and finite"
+                    )));
+                }
+                if o.reference.norm() == 0.0 {
+                    return Err(FilterError::InvalidMeasurement(format!(
+                        "observation {i}: zero reference vector"
+                    )));
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+impl<F: FilterCore> AttitudeFilter for Driver<F> {
+    fn spec(&self) -> FilterSpec {
+        self.core.spec()
+    }
+
+    fn time_s(&self) -> Option<f64> {
+        self.t_s
+    }
+
+    fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError> {
+        validate(measurement)?;
+        self.propagate_to(measurement.t_s())?;
+        match measurement {
+            Measurement::Gyro(g) => {
+                self.omega_meas_rad_s = Some(g.omega_body_rad_s);
+                Ok(())
+            }
+            Measurement::Vectors(set) if set.observations.is_empty() => Ok(()),
+            Measurement::Vectors(set) => self.core.update(&set.observations),
+        }
+    }
+
+    fn estimate(&self) -> Estimate {
+        let mut e = self.core.estimate();
+        e.t_s = self.t_s.unwrap_or(0.0);
+        e
+    }
+}
+
+/// Builds a filter behind the shared interface. `seed` seeds the filter's own RNG (sampling filters).
+pub fn build_filter(
+    config: &FilterConfig,
+    initial: &InitialState,
+    seed: u64,
+) -> Result<Box<dyn AttitudeFilter>, FilterError> {
+    let _ = seed;
+    match config.spec.kind {
+        FilterKind::Mekf => Ok(Box::new(Driver::new(
+            Mekf::new(config, initial)?,
+            initial.t_s,
+        ))),
+        other => Err(FilterError::InvalidConfig(format!(
+            "filter '{}' is not available yet",
+            other.as_str()
+        ))),
+    }
+}
+
+/// Symmetrises a covariance in place: `P ← (P + Pᵀ)/2`.
+pub fn symmetrize(p: &mut Matrix6<f64>) {
+    *p = (*p + p.transpose()) * 0.5;
+}
+
+/// True when `p` is finite, symmetric to rounding and positive definite (Cholesky succeeds).
+pub fn is_spd(p: &Matrix6<f64>) -> bool {
+    p.iter().all(|x| x.is_finite()) && p.cholesky().is_some()
+}
