@@ -47,7 +47,11 @@ impl Pcrb {
     }
 
     /// From per-axis initial 1σ of attitude (rad) and bias (rad/s).
-    pub fn from_sigmas(gyro: GyroNoise, sigma_att_rad: &Vector3<f64>, sigma_bias_rad_s: &Vector3<f64>) -> Self {
+    pub fn from_sigmas(
+        gyro: GyroNoise,
+        sigma_att_rad: &Vector3<f64>,
+        sigma_bias_rad_s: &Vector3<f64>,
+    ) -> Self {
         let mut p0 = Matrix6::zeros();
         for i in 0..3 {
             p0[(i, i)] = sigma_att_rad[i].powi(2);

@@ -19,18 +19,20 @@ fn q(v: [f64; 4]) -> Quaternion {
 fn assert_q_close(a: &Quaternion, b: [f64; 4], tol: f64) {
     let b = q(b);
     let s = if a.dot(&b) < 0.0 { -1.0 } else { 1.0 };
-    let d = [
-        a.x - s * b.x,
-        a.y - s * b.y,
-        a.z - s * b.z,
-        a.w - s * b.w,
-    ];
+    let d = [a.x - s * b.x, a.y - s * b.y, a.z - s * b.z, a.w - s * b.w];
     let err = d.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    assert!(err < tol, "{a:?} vs ±{b:?}: max difference {err:e} > {tol:e}");
+    assert!(
+        err < tol,
+        "{a:?} vs ±{b:?}: max difference {err:e} > {tol:e}"
+    );
 }
 
 fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
-    assert!((a - b).abs() <= tol, "{what}: {a} vs {b} (diff {:e})", (a - b).abs());
+    assert!(
+        (a - b).abs() <= tol,
+        "{what}: {a} vs {b} (diff {:e})",
+        (a - b).abs()
+    );
 }
 
 #[test]
@@ -42,7 +44,12 @@ fn attitude_matrix_of_a_frame_rotation_about_z() {
     let b = a * Vector3::x();
     assert!((b - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-15, "{b}");
     // A(q) = (q4² − ϱᵀϱ) I + 2ϱϱᵀ − 2 q4 [ϱ×] written out for a generic quaternion.
-    let g = q([0.216930457819, -0.108465228909, 0.433860915637, 0.867721831275]);
+    let g = q([
+        0.216930457819,
+        -0.108465228909,
+        0.433860915637,
+        0.867721831275,
+    ]);
     let a = g.attitude_matrix();
     let (x, y, z, w) = (g.x, g.y, g.z, g.w);
     let expected = Matrix3::new(
@@ -62,15 +69,22 @@ fn attitude_matrix_of_a_frame_rotation_about_z() {
 #[test]
 fn same_numbers_as_hamilton_body_to_reference() {
     // nalgebra's UnitQuaternion is Hamilton; from (w, x, y, z) its rotation matrix R satisfies A = Rᵀ.
-    let g = q([0.216930457819, -0.108465228909, 0.433860915637, 0.867721831275])
-        .normalized()
-        .unwrap();
-    let h = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(g.w, g.x, g.y, g.z));
+    let g = q([
+        0.216930457819,
+        -0.108465228909,
+        0.433860915637,
+        0.867721831275,
+    ])
+    .normalized()
+    .unwrap();
+    let h =
+        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(g.w, g.x, g.y, g.z));
     let r = h.to_rotation_matrix().into_inner();
     assert!((g.attitude_matrix() - r.transpose()).norm() < 1e-14);
     // The Shuster product p ⊗ q is the Hamilton product q · p.
     let p = q([0.1, 0.2, -0.3, 0.9]).normalized().unwrap();
-    let hp = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(p.w, p.x, p.y, p.z));
+    let hp =
+        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(p.w, p.x, p.y, p.z));
     let shuster = p.compose(&g);
     let hamilton = (h * hp).into_inner();
     assert_q_close(
@@ -84,7 +98,10 @@ fn same_numbers_as_hamilton_body_to_reference() {
 fn composition_error_and_small_angle_conventions() {
     let p = q([0.1, 0.2, -0.3, 0.9]).normalized().unwrap();
     let r = q([-0.4, 0.1, 0.2, 0.8]).normalized().unwrap();
-    assert!((p.compose(&r).attitude_matrix() - p.attitude_matrix() * r.attitude_matrix()).norm() < 1e-14);
+    assert!(
+        (p.compose(&r).attitude_matrix() - p.attitude_matrix() * r.attitude_matrix()).norm()
+            < 1e-14
+    );
     // δq = q ⊗ q̂⁻¹ with a small body-frame error δα gives back δα ≈ 2δϱ.
     let dalpha = Vector3::new(1e-4, -2e-4, 3e-4);
     let truth = Quaternion::from_rotation_vector(&dalpha).compose(&r);
@@ -92,7 +109,8 @@ fn composition_error_and_small_angle_conventions() {
     assert!((e - dalpha).norm() < 1e-11, "{e}");
     // Applying δα on the left rotates body vectors: A(q) ≈ (I − [δα×]) A(q̂).
     let lhs = truth.attitude_matrix();
-    let rhs = (Matrix3::identity() - attitude_service::attitude::skew(&dalpha)) * r.attitude_matrix();
+    let rhs =
+        (Matrix3::identity() - attitude_service::attitude::skew(&dalpha)) * r.attitude_matrix();
     assert!((lhs - rhs).norm() < 1e-7);
 }
 
@@ -109,7 +127,12 @@ fn tv_a1_scipy_mean() {
     let avg = weighted_average(&qs, &[1.0; 4], None).unwrap();
     assert_q_close(
         &avg.q,
-        [0.002181670218128, 0.002181670218128, 0.002181670218128, 0.999992860447102],
+        [
+            0.002181670218128,
+            0.002181670218128,
+            0.002181670218128,
+            0.999992860447102,
+        ],
         1e-12,
     );
     let ev = avg.eigenvalues;
@@ -117,7 +140,12 @@ fn tv_a1_scipy_mean() {
     assert_close(ev[1], 7.6152e-5, 1e-9, "λ2");
     assert_close(ev[2], 7.6152e-5, 1e-9, "λ3");
     assert_close(ev[3], 1.9039e-5, 1e-9, "λ4");
-    assert_close(avg.concentration, 3.99982865624 / 4.0, 1e-10, "concentration");
+    assert_close(
+        avg.concentration,
+        3.99982865624 / 4.0,
+        1e-10,
+        "concentration",
+    );
 }
 
 #[test]
@@ -131,7 +159,12 @@ fn tv_a2_weighted_with_a_negated_input() {
     let avg = weighted_average(&qs, &[0.1, 0.2, 0.3, 0.4], None).unwrap();
     assert_q_close(
         &avg.q,
-        [0.017690458951285, 0.052671855517375, 0.104587475129306, 0.992962327253419],
+        [
+            0.017690458951285,
+            0.052671855517375,
+            0.104587475129306,
+            0.992962327253419,
+        ],
         1e-12,
     );
 }
@@ -139,7 +172,10 @@ fn tv_a2_weighted_with_a_negated_input() {
 #[test]
 fn tv_a3_symmetric_pair_and_eigenvalues() {
     let h = 20f64.to_radians();
-    let qs = [q([0.0, 0.0, h.sin(), h.cos()]), q([0.0, 0.0, -h.sin(), h.cos()])];
+    let qs = [
+        q([0.0, 0.0, h.sin(), h.cos()]),
+        q([0.0, 0.0, -h.sin(), h.cos()]),
+    ];
     let avg = weighted_average(&qs, &[1.0, 1.0], None).unwrap();
     assert_q_close(&avg.q, [0.0, 0.0, 0.0, 1.0], 1e-12);
     assert_close(avg.eigenvalues[0], 2.0 * h.cos().powi(2), 1e-12, "λ1");
@@ -152,8 +188,17 @@ fn tv_a4_unequal_weights_about_one_axis() {
     let h = 45f64.to_radians();
     let qs = [q([0.0, 0.0, 0.0, 1.0]), q([0.0, 0.0, h.sin(), h.cos()])];
     let avg = weighted_average(&qs, &[1.0, 3.0], None).unwrap();
-    assert_q_close(&avg.q, [0.0, 0.0, 0.584710284663765, 0.811242185175561], 1e-12);
-    assert_close(avg.q.angle().to_degrees(), 71.56505117707799, 1e-10, "angle");
+    assert_q_close(
+        &avg.q,
+        [0.0, 0.0, 0.584710284663765, 0.811242185175561],
+        1e-12,
+    );
+    assert_close(
+        avg.q.angle().to_degrees(),
+        71.56505117707799,
+        1e-10,
+        "angle",
+    );
 }
 
 #[test]
@@ -198,10 +243,33 @@ fn average_sign_continuity_and_failures_without_panics() {
 fn tv_b_omega_propagation() {
     let w = Vector3::new(0.01, -0.02, 0.03);
     let out = Quaternion::IDENTITY.propagate(&w, 1.0);
-    assert_q_close(&out, [0.004999708338, -0.009999416677, 0.014999125015, 0.999825005104], 1e-12);
-    let q0 = q([0.216930457819, -0.108465228909, 0.433860915637, 0.867721831275]);
+    assert_q_close(
+        &out,
+        [
+            0.004999708338,
+            -0.009999416677,
+            0.014999125015,
+            0.999825005104,
+        ],
+        1e-12,
+    );
+    let q0 = q([
+        0.216930457819,
+        -0.108465228909,
+        0.433860915637,
+        0.867721831275,
+    ]);
     let out = q0.propagate(&w, 1.0);
-    assert_q_close(&out, [0.223942324718, -0.118207549217, 0.445173176889, 0.858893272233], 1e-12);
+    assert_q_close(
+        &out,
+        [
+            0.223942324718,
+            -0.118207549217,
+            0.445173176889,
+            0.858893272233,
+        ],
+        1e-12,
+    );
     // The explicit Ω matrix agrees with the product form.
     let m = Quaternion::omega_matrix(&w, 1.0) * q0.to_vector4();
     assert_q_close(&out, [m[0], m[1], m[2], m[3]], 1e-15);
@@ -214,7 +282,12 @@ fn tv_b_omega_propagation() {
 
 #[test]
 fn tv_c_generalized_rodrigues_parameters() {
-    let dq = q([0.086273015034, 0.172546030068, 0.172546030068, 0.965925826289]);
+    let dq = q([
+        0.086273015034,
+        0.172546030068,
+        0.172546030068,
+        0.965925826289,
+    ]);
     let cases = [
         (Grp::USQUE, [0.17553666345, 0.3510733269, 0.3510733269]),
         (Grp::MRP, [0.043884165862, 0.087768331725, 0.087768331725]),
@@ -257,7 +330,12 @@ fn tv_d_mekf_transition_and_noise() {
 
 #[test]
 fn tv_e_q_method_recovers_the_truth() {
-    let truth = q([0.207390338946, -0.414780677892, 0.311085508419, 0.829561355784]);
+    let truth = q([
+        0.207390338946,
+        -0.414780677892,
+        0.311085508419,
+        0.829561355784,
+    ]);
     let s3 = 1.0 / 3f64.sqrt();
     let refs = [
         Vector3::x(),
@@ -310,7 +388,12 @@ fn tv_f_average_removes_the_mean_local_error() {
     let avg = weighted_average(&qs, &w, None).unwrap();
     assert_q_close(
         &avg.q,
-        [0.008002236534, 0.008999457716, 0.005997941163, 0.999909495241],
+        [
+            0.008002236534,
+            0.008999457716,
+            0.005997941163,
+            0.999909495241,
+        ],
         1e-12,
     );
     let mut mean = Vector3::zeros();
@@ -330,7 +413,12 @@ fn tv_h_steady_state_closed_form() {
     let g = GyroNoise::standard();
     let s = steady_state(&g, 6.0 * ARCSEC, 1.0);
     assert_close(s.sigma_att_rad / ARCSEC, 0.6506, 5e-5, "σθ (Δt = 1 s)");
-    assert_close(s.sigma_bias_rad_s / DEG_PER_HR, 0.00215, 5e-6, "σβ (Δt = 1 s)");
+    assert_close(
+        s.sigma_bias_rad_s / DEG_PER_HR,
+        0.00215,
+        5e-6,
+        "σβ (Δt = 1 s)",
+    );
     let s10 = steady_state(&g, 6.0 * ARCSEC, 10.0);
     assert_close(s10.sigma_att_rad / ARCSEC, 1.2342, 5e-5, "σθ (Δt = 10 s)");
 }

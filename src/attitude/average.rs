@@ -171,7 +171,11 @@ fn largest_eigenvector(
     // Divide by Σw so that the solver's absolute epsilon is meaningful whatever the weights' scale.
     let (v, lambda) = top_eigenpair(&(m / total_weight))?;
     let gap = lambda[0] - lambda[1];
-    let relative_gap = if lambda[0] > 0.0 { gap / lambda[0] } else { 0.0 };
+    let relative_gap = if lambda[0] > 0.0 {
+        gap / lambda[0]
+    } else {
+        0.0
+    };
     if relative_gap <= UNDECIDABLE_RELATIVE_GAP {
         return Err(AverageError::Undecidable { relative_gap });
     }

@@ -71,7 +71,12 @@ impl Quaternion {
         if !n.is_finite() || n < f64::MIN_POSITIVE.sqrt() {
             return None;
         }
-        Some(Quaternion::new(self.x / n, self.y / n, self.z / n, self.w / n))
+        Some(Quaternion::new(
+            self.x / n,
+            self.y / n,
+            self.z / n,
+            self.w / n,
+        ))
     }
 
     pub fn is_finite(&self) -> bool {
@@ -172,7 +177,8 @@ impl Quaternion {
         let top = Matrix3::identity() * c - skew(&psi);
         m.fixed_view_mut::<3, 3>(0, 0).copy_from(&top);
         m.fixed_view_mut::<3, 1>(0, 3).copy_from(&psi);
-        m.fixed_view_mut::<1, 3>(3, 0).copy_from(&(-psi.transpose()));
+        m.fixed_view_mut::<1, 3>(3, 0)
+            .copy_from(&(-psi.transpose()));
         m[(3, 3)] = c;
         m
     }

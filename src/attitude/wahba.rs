@@ -39,8 +39,12 @@ pub fn q_method(observations: &[VectorObservation]) -> Result<WahbaSolution, Wah
     let mut z = Vector3::zeros();
     let mut scale = 0.0;
     for (index, o) in observations.iter().enumerate() {
-        let finite = o.body.iter().chain(o.reference.iter()).all(|x| x.is_finite());
-        if !finite || !(o.sigma.is_finite() && o.sigma > 0.0) {
+        let finite = o
+            .body
+            .iter()
+            .chain(o.reference.iter())
+            .all(|x| x.is_finite());
+        if !(finite && o.sigma.is_finite() && o.sigma > 0.0) {
             return Err(WahbaError::InvalidObservation { index });
         }
         let a = 1.0 / (o.sigma * o.sigma);

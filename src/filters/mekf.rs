@@ -123,10 +123,9 @@ pub struct Mekf {
 
 impl Mekf {
     pub fn new(config: &FilterConfig, initial: &InitialState) -> Result<Self, FilterError> {
-        let q = initial
-            .q
-            .normalized()
-            .ok_or_else(|| FilterError::InvalidConfig("initial quaternion has no direction".into()))?;
+        let q = initial.q.normalized().ok_or_else(|| {
+            FilterError::InvalidConfig("initial quaternion has no direction".into())
+        })?;
         let mut p = Matrix6::zeros();
         for i in 0..3 {
             p[(i, i)] = initial.sigma_att_rad[i].powi(2);
@@ -166,7 +165,9 @@ impl FilterCore for Mekf {
         symmetrize(&mut p);
         let q = self.q.propagate(&omega_hat, dt_s);
         if !q.is_finite() || !p.iter().all(|x| x.is_finite()) {
-            return Err(FilterError::NonFinite { step: "propagation" });
+            return Err(FilterError::NonFinite {
+                step: "propagation",
+            });
         }
         self.q = q;
         self.p = p;

@@ -78,7 +78,9 @@ impl fmt::Display for FilterSpec {
 }
 
 #[derive(Clone, Debug, Error, PartialEq)]
-#[error("unknown filter '{0}': expected mekf, usque[:propagated|:average] or qpf[:propagated|:average]")]
+#[error(
+    "unknown filter '{0}': expected mekf, usque[:propagated|:average] or qpf[:propagated|:average]"
+)]
 pub struct ParseFilterSpecError(pub String);
 
 impl FromStr for FilterSpec {

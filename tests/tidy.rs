@@ -1,0 +1,65 @@
+//! Tidy rules: the numeric core does no I/O, no async, no JSON, no printing.
+
+use std::path::Path;
+
+const CORE: &[&str] = &[
+    "src/attitude",
+    "src/sensors",
+    "src/filters",
+    "src/sim",
+    "src/bounds.rs",
+];
+const FORBIDDEN: &[&str] = &[
+    "tokio",
+    "zenoh",
+    "serde_json",
+    "std::fs",
+    "std::io",
+    "std::net",
+    "println!",
+    "eprintln!",
+    "print!(",
+    "dbg!(",
+];
+
+fn rust_files(path: &Path, out: &mut Vec<std::path::PathBuf>) {
+    if path.is_dir() {
+        for entry in std::fs::read_dir(path).unwrap() {
+            rust_files(&entry.unwrap().path(), out);
+        }
+    } else if path.extension().is_some_and(|e| e == "rs") {
+        out.push(path.to_path_buf());
+    }
+}
+
+#[test]
+fn numeric_core_does_no_io() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    for c in CORE {
+        rust_files(&root.join(c), &mut files);
+    }
+    assert!(files.len() >= 8, "the core modules were found");
+    let mut violations = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        // Unit tests at the bottom of a file may print; the code above them may not.
+        let code = text.split("#[cfg(test)]").next().unwrap_or("");
+        for (n, line) in code.lines().enumerate() {
+            let line = line.trim_start();
+            if line.starts_with("//") {
+                continue;
+            }
+            for word in FORBIDDEN {
+                if line.contains(word) {
+                    violations.push(format!("{}:{}: {word}", f.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "numeric core does I/O:\n{}",
+        violations.join("\n")
+    );
+}
