@@ -10,6 +10,7 @@
 //! input or a numerical failure never poisons the state.
 
 pub mod mekf;
+pub mod qpf;
 
 use crate::attitude::Quaternion;
 use crate::sensors::{GyroNoise, Measurement, VectorObservation};
@@ -19,6 +20,7 @@ use std::str::FromStr;
 use thiserror::Error;
 
 pub use mekf::Mekf;
+pub use qpf::{Kernel, Qpf, QpfOptions};
 
 /// Which estimator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -118,6 +120,8 @@ pub struct FilterConfig {
     pub gyro: GyroNoise,
     /// Particle count of the QPF.
     pub particles: usize,
+    /// Tuning of the QPF (kernel, bandwidth, resampling, progressive correction).
+    pub qpf: QpfOptions,
 }
 
 impl FilterConfig {
@@ -126,6 +130,7 @@ impl FilterConfig {
             spec,
             gyro,
             particles: 1000,
+            qpf: QpfOptions::default(),
         }
     }
 }
@@ -344,15 +349,17 @@ pub fn build_filter(
     initial: &InitialState,
     seed: u64,
 ) -> Result<Box<dyn AttitudeFilter>, FilterError> {
-    let _ = seed;
     match config.spec.kind {
         FilterKind::Mekf => Ok(Box::new(Driver::new(
             Mekf::new(config, initial)?,
             initial.t_s,
         ))),
-        other => Err(FilterError::InvalidConfig(format!(
-            "filter '{}' is not available yet",
-            other.as_str()
+        FilterKind::Usque => Err(FilterError::InvalidConfig(
+            "filter 'usque' is not available yet".into(),
+        )),
+        FilterKind::Qpf => Ok(Box::new(Driver::new(
+            Qpf::new(config, initial, config.qpf, seed)?,
+            initial.t_s,
         ))),
     }
 }
