@@ -11,6 +11,7 @@
 
 pub mod mekf;
 pub mod qpf;
+pub mod usque;
 
 use crate::attitude::Quaternion;
 use crate::sensors::{GyroNoise, Measurement, VectorObservation};
@@ -21,6 +22,7 @@ use thiserror::Error;
 
 pub use mekf::Mekf;
 pub use qpf::{Kernel, Qpf, QpfOptions};
+pub use usque::{Usque, UsqueOptions};
 
 /// Which estimator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -354,9 +356,10 @@ pub fn build_filter(
             Mekf::new(config, initial)?,
             initial.t_s,
         ))),
-        FilterKind::Usque => Err(FilterError::InvalidConfig(
-            "filter 'usque' is not available yet".into(),
-        )),
+        FilterKind::Usque => Ok(Box::new(Driver::new(
+            Usque::new(config, initial, UsqueOptions::default())?,
+            initial.t_s,
+        ))),
         FilterKind::Qpf => Ok(Box::new(Driver::new(
             Qpf::new(config, initial, config.qpf, seed)?,
             initial.t_s,
