@@ -164,3 +164,147 @@ fn scenarios_command_documents_every_scenario() {
         assert!(text.contains(name), "{name} missing");
     }
 }
+
+#[test]
+fn particle_filter_studies_are_deterministic_too() {
+    let strip = |mut v: Vec<FilterSummary>| {
+        for s in &mut v {
+            s.us_per_step = 0.0;
+        }
+        v
+    };
+    let args = [
+        "--scenario",
+        "lost-in-space",
+        "--filters",
+        "qpf:average,qpf:propagated,usque:average",
+        "--runs",
+        "3",
+        "--seed",
+        "7",
+        "--duration",
+        "120",
+        "--particles",
+        "300",
+    ];
+    let (a_dir, b_dir) = (out_dir("qpf-det-a"), out_dir("qpf-det-b"));
+    let a = strip(run(&[&args[..], &["--jobs", "1"]].concat(), &a_dir));
+    let b = strip(run(&[&args[..], &["--jobs", "2"]].concat(), &b_dir));
+    assert_eq!(a, b);
+    let labels: Vec<&str> = a.iter().map(|s| s.filter.as_str()).collect();
+    assert_eq!(labels, ["qpf:average", "qpf:propagated", "usque:average"]);
+    assert_eq!(a[0].particles, Some(300));
+    assert_eq!(a[0].fiducial.as_deref(), Some("average"));
+    assert_eq!(a[1].fiducial.as_deref(), Some("propagated"));
+    assert_eq!(a[2].particles, None);
+    // The particle filter recovers from a uniformly random attitude in this scenario.
+    assert_eq!(a[0].converged_runs, 3, "{:?}", a[0]);
+    for d in [a_dir, b_dir] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn sweep_reports_one_row_per_particle_count() {
+    let out = out_dir("sweep");
+    let output = bin()
+        .args([
+            "sweep",
+            "--scenario",
+            "lost-in-space",
+            "--particles",
+            "100,200",
+            "--runs",
+            "2",
+            "--duration",
+            "60",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let rows: Vec<FilterSummary> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    let counts: Vec<Option<usize>> = rows.iter().map(|r| r.particles).collect();
+    assert_eq!(counts, [Some(100), Some(200)]);
+    assert!(rows
+        .iter()
+        .all(|r| r.filter == "qpf:average" && r.runs == 2));
+    assert!(std::fs::metadata(out.join("sweep.png")).unwrap().len() > 10_000);
+    assert!(std::fs::read_to_string(out.join("sweep.md"))
+        .unwrap()
+        .contains("| 200 |"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Issue targets of the particle filter with the averaged fiducial (seeded; 20 runs each).
+#[test]
+fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
+    let out = out_dir("qpf-mag");
+    let mag = run(
+        &[
+            "--scenario",
+            "magnetometer-leo",
+            "--filters",
+            "qpf:average,mekf",
+            "--runs",
+            "20",
+            "--seed",
+            "11",
+        ],
+        &out,
+    );
+    let (qpf, mekf) = (&mag[0], &mag[1]);
+    assert!(
+        qpf.converged_runs >= 19,
+        "≥ 95% converge from 50°/50°/160°: {qpf:?}"
+    );
+    for axis in 0..3 {
+        assert!(
+            qpf.rms_over_pcrb[axis] <= 1.5,
+            "magnetometer-leo axis {axis}: {qpf:?}"
+        );
+    }
+    assert!(
+        mekf.converged_runs < qpf.converged_runs,
+        "the MEKF baseline is worse here: {mekf:?}"
+    );
+    let out2 = out_dir("qpf-st");
+    let st = run(
+        &[
+            "--scenario",
+            "star-tracker",
+            "--filters",
+            "qpf:average",
+            "--runs",
+            "20",
+            "--seed",
+            "11",
+            "--particles",
+            "1000",
+        ],
+        &out2,
+    );
+    let s = &st[0];
+    assert_eq!(s.converged_runs, 20, "{s:?}");
+    for axis in 0..3 {
+        assert!(
+            s.rms_over_pcrb[axis] <= 1.5 && s.rms_over_pcrb[axis] >= 0.8,
+            "star-tracker axis {axis}: {s:?}"
+        );
+    }
+    let [lo, hi] = s.anees_interval;
+    assert!(
+        s.anees >= lo && s.anees <= hi,
+        "star-tracker ANEES {} outside [{lo}, {hi}]",
+        s.anees
+    );
+    for d in [out, out2] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

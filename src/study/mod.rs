@@ -15,6 +15,7 @@
 
 pub mod report;
 pub mod runner;
+pub mod sweep;
 
 use crate::filters::FilterSpec;
 

@@ -151,7 +151,7 @@ struct PlotOutcome {
     outcome: Result<bool, String>,
 }
 
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
+pub(super) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
     std::fs::write(path, bytes).map_err(|e| ReportError::Io {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -431,10 +431,10 @@ fn markdown(study: &StudyResult, unit: AngleUnit, plots: &[PlotOutcome]) -> Stri
 // ---------------------------------------------------------------------------------------------
 // Plot helpers.
 
-const WIDTH: u32 = 1200;
-const HEIGHT: u32 = 900;
-const FONT: &str = "sans-serif";
-const PALETTE: [RGBColor; 10] = [
+pub(super) const WIDTH: u32 = 1200;
+pub(super) const HEIGHT: u32 = 900;
+pub(super) const FONT: &str = "sans-serif";
+pub(super) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -446,7 +446,7 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
 ];
-const AXES: [&str; 3] = ["x", "y", "z"];
+pub(super) const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Registers the bundled font as `sans-serif` (once per process).
 fn ensure_font() -> Result<(), String> {
@@ -467,7 +467,10 @@ fn ensure_font() -> Result<(), String> {
 }
 
 /// Draws one plot: registers the font, turns a panic into an error, removes a partial file on error.
-fn run_plot(path: &Path, draw: impl FnOnce(&Path) -> Result<bool, String>) -> Result<bool, String> {
+pub(super) fn run_plot(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> Result<bool, String>,
+) -> Result<bool, String> {
     ensure_font()?;
     let result = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| draw(path))) {
         Ok(r) => r,
@@ -486,12 +489,12 @@ fn run_plot(path: &Path, draw: impl FnOnce(&Path) -> Result<bool, String>) -> Re
     result
 }
 
-fn pe<E: std::fmt::Display>(e: E) -> String {
+pub(super) fn pe<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
 /// One entry of a plot's legend.
-struct LegendEntry {
+pub(super) struct LegendEntry {
     label: String,
     color: RGBAColor,
     width: u32,
@@ -499,7 +502,12 @@ struct LegendEntry {
 }
 
 impl LegendEntry {
-    fn new(label: impl Into<String>, color: RGBAColor, width: u32, dashed: bool) -> Self {
+    pub(super) fn new(
+        label: impl Into<String>,
+        color: RGBAColor,
+        width: u32,
+        dashed: bool,
+    ) -> Self {
         LegendEntry {
             label: label.into(),
             color,
@@ -511,7 +519,7 @@ impl LegendEntry {
 
 /// Draws the title and a horizontal legend (wrapped over several rows if needed) at the top of `root`
 /// and returns the area below them, so the legend never hides data.
-fn draw_header<DB: DrawingBackend>(
+pub(super) fn draw_header<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     legend: &[LegendEntry],
