@@ -2,15 +2,21 @@
 
 use anyhow::{bail, Context, Result};
 use attitude_service::filters::FilterSpec;
+use attitude_service::service::config as service_config;
+use attitude_service::service::keys::Keys;
 use attitude_service::sim::{InitialError, ScenarioName, ScenarioParams, DEG, DEG_PER_HR};
 use attitude_service::study::report::write_report;
 use attitude_service::study::runner::{run_study, StudyConfig};
 use attitude_service::study::sweep::{run_sweep, write_sweep_report};
+use attitude_service::tools::demo::{demo, render};
+use attitude_service::tools::simulate::{simulate, SimulateOptions};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 #[derive(Parser)]
 #[command(
@@ -33,6 +39,17 @@ enum Command {
     Sweep(SweepArgs),
     /// Lists the standard scenarios and every parameter they use.
     Scenarios,
+    /// The network service: subscribes to P/*/gyro and P/*/vectors, keeps one filter per vehicle,
+    /// publishes P/V/estimate and answers P/V/attitude, covariance, state, reset, P/@/vehicles and
+    /// P/@/health. Stops cleanly on SIGINT or SIGTERM. Logs go to stderr; set RUST_LOG=info for more.
+    Serve(ServeArgs),
+    /// Publishes a scenario's measurements for N simulated vehicles to a running service (and their
+    /// truth on P/V/truth), in real time or faster.
+    Simulate(SimulateArgs),
+    /// The service and simulated vehicles in one process over real zenoh, with a live table of each
+    /// vehicle's error against the truth. By default: four vehicles with different filters on
+    /// magnetometer-leo (initial errors up to 160°), 4 h of flight in about 30 s.
+    Demo(DemoArgs),
 }
 
 #[derive(Args)]
@@ -59,19 +76,14 @@ struct SweepArgs {
     study: StudyArgs,
 }
 
-/// Options shared by the studies: scenario, runs, seed, overrides, output.
-#[derive(Args)]
-struct StudyArgs {
-    /// Scenario: star-tracker, magnetometer-leo or lost-in-space (see `scenarios`).
+/// The scenario and its overrides (studies, simulate, demo).
+#[derive(Args, Clone)]
+struct ScenarioArgs {
+    /// Scenario: star-tracker, magnetometer-leo or lost-in-space (see `scenarios`). Required, except
+    /// for `demo` (magnetometer-leo).
     #[arg(long)]
-    scenario: ScenarioName,
-    /// Monte-Carlo runs.
-    #[arg(long, default_value_t = 20)]
-    runs: usize,
-    /// Study seed; the same seed gives the same summary.json.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Run length, s (default: the scenario's).
+    scenario: Option<ScenarioName>,
+    /// Run length, s (default: the scenario's; 14400 for `demo`).
     #[arg(long)]
     duration: Option<f64>,
     /// Initial attitude error, deg: one value for every axis or three comma-separated. The 3-2-1 Euler
@@ -86,6 +98,19 @@ struct StudyArgs {
     /// 1σ is set to the same value).
     #[arg(long)]
     bias_deg_hr: Option<f64>,
+}
+
+/// Options shared by the studies: scenario, runs, seed, output.
+#[derive(Args)]
+struct StudyArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Monte-Carlo runs.
+    #[arg(long, default_value_t = 20)]
+    runs: usize,
+    /// Study seed; the same seed gives the same summary.json.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
     /// Worker threads (default: all cores).
     #[arg(long)]
     jobs: Option<usize>,
@@ -94,11 +119,82 @@ struct StudyArgs {
     out: PathBuf,
 }
 
+#[derive(Args)]
+struct ServeArgs {
+    /// Configuration file (JSON5; `zenoh` and `service` sections). Default: the built-in defaults,
+    /// identical to config/default.json5.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Zenoh endpoint to listen on (repeatable); replaces the configuration's listen endpoints.
+    #[arg(long)]
+    listen: Vec<String>,
+    /// Zenoh endpoint to connect to (repeatable); replaces the configuration's connect endpoints.
+    #[arg(long)]
+    connect: Vec<String>,
+}
+
+/// The simulated fleet of `simulate` and `demo`.
+#[derive(Args, Clone)]
+struct FleetArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Number of vehicles (ids <vehicle-prefix>1, <vehicle-prefix>2, ...). Default 3 (`demo`: 4).
+    #[arg(long)]
+    vehicles: Option<usize>,
+    /// Vehicle id prefix.
+    #[arg(long, default_value = "sc")]
+    vehicle_prefix: String,
+    /// Filters assigned to the vehicles round-robin (by a reset before streaming); default: the
+    /// service's configured filter (`demo`: qpf:average,qpf:propagated,usque:average,mekf).
+    #[arg(long, value_delimiter = ',')]
+    filters: Vec<FilterSpec>,
+    /// Particles of the particle-filter vehicles (default: the service's).
+    #[arg(long)]
+    particles: Option<usize>,
+    /// Simulated seconds per wall-clock second; 0 publishes as fast as possible. Default 1 (`demo`: 480).
+    #[arg(long)]
+    speed: Option<f64>,
+    /// Seed of the simulated data.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Do not send the vehicles a reset with the scenario's initial estimate before streaming: the
+    /// service then initialises each vehicle from its measurements.
+    #[arg(long)]
+    no_reset: bool,
+    /// Key prefix of the service.
+    #[arg(long, default_value = "attitude")]
+    prefix: String,
+}
+
+#[derive(Args)]
+struct SimulateArgs {
+    #[command(flatten)]
+    fleet: FleetArgs,
+    /// Zenoh endpoint of the service (repeatable).
+    #[arg(long, default_value = "tcp/127.0.0.1:7447")]
+    connect: Vec<String>,
+}
+
+#[derive(Args)]
+struct DemoArgs {
+    #[command(flatten)]
+    fleet: FleetArgs,
+    /// Where the in-process service listens and the simulator connects (a concrete port).
+    #[arg(long, default_value = "tcp/127.0.0.1:7447")]
+    listen: String,
+    /// Service configuration (JSON5), as for `serve`.
+    #[arg(long)]
+    config: Option<PathBuf>,
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Montecarlo(args) => montecarlo(args),
         Command::Sweep(args) => sweep(args),
+        Command::Serve(args) => runtime()?.block_on(serve(args)),
+        Command::Simulate(args) => runtime()?.block_on(simulate_cmd(args)),
+        Command::Demo(args) => runtime()?.block_on(demo_cmd(args)),
         Command::Scenarios => {
             for name in ScenarioName::ALL {
                 println!("{}\n", ScenarioParams::default_for(name).describe());
@@ -108,8 +204,11 @@ fn main() -> Result<()> {
     }
 }
 
-fn scenario_from_args(args: &StudyArgs) -> Result<ScenarioParams> {
-    let mut p = ScenarioParams::default_for(args.scenario);
+fn scenario_from_args(args: &ScenarioArgs) -> Result<ScenarioParams> {
+    let Some(name) = args.scenario else {
+        bail!("--scenario is required (star-tracker, magnetometer-leo or lost-in-space)");
+    };
+    let mut p = ScenarioParams::default_for(name);
     if let Some(d) = args.duration {
         p.duration_s = d;
     }
@@ -171,7 +270,7 @@ fn study_config(
             .unwrap_or(1)
     });
     Ok(StudyConfig {
-        scenario: scenario_from_args(args)?,
+        scenario: scenario_from_args(&args.scenario)?,
         filters,
         runs: args.runs,
         seed: args.seed,
@@ -233,5 +332,197 @@ fn sweep(args: SweepArgs) -> Result<()> {
     for f in files {
         println!("  {}", f.display());
     }
+    Ok(())
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    // Zenoh needs the multi-thread runtime.
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")
+}
+
+/// Logs to stderr, quiet (warnings only) unless RUST_LOG says otherwise.
+fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// Resolves on SIGINT or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term =
+            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(t) => t,
+                Err(_) => {
+                    let _ = ctrl_c.await;
+                    return;
+                }
+            };
+        tokio::select! {
+            _ = ctrl_c => {},
+            _ = term.recv() => {},
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = ctrl_c.await;
+}
+
+/// The built-in configuration: exactly config/default.json5.
+const DEFAULT_CONFIG: &str = include_str!("../config/default.json5");
+
+fn load_config(path: Option<&PathBuf>) -> Result<service_config::FileConfig> {
+    Ok(match path {
+        Some(p) => service_config::load(p)?,
+        None => service_config::parse(DEFAULT_CONFIG, "built-in default configuration")?,
+    })
+}
+
+fn zenoh_config(json: &str, listen: &[String], connect: &[String]) -> Result<zenoh::Config> {
+    let mut c = zenoh::Config::from_json5(json)
+        .map_err(|e| anyhow::anyhow!("invalid zenoh configuration: {e}"))?;
+    if !listen.is_empty() {
+        c.insert_json5("listen/endpoints", &serde_json::to_string(listen)?)
+            .map_err(|e| anyhow::anyhow!("--listen: {e}"))?;
+    }
+    if !connect.is_empty() {
+        c.insert_json5("connect/endpoints", &serde_json::to_string(connect)?)
+            .map_err(|e| anyhow::anyhow!("--connect: {e}"))?;
+    }
+    Ok(c)
+}
+
+async fn serve(args: ServeArgs) -> Result<()> {
+    init_logging();
+    let file = load_config(args.config.as_ref())?;
+    let zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
+    let session = zenoh::open(zc)
+        .await
+        .map_err(|e| anyhow::anyhow!("cannot open the zenoh session: {e}"))?;
+    attitude_service::service::run(session, file.service, shutdown_signal()).await?;
+    Ok(())
+}
+
+/// Defaults of a fleet command where the user gave none.
+struct FleetDefaults {
+    vehicles: usize,
+    speed: f64,
+}
+
+fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions> {
+    let vehicles = fleet.vehicles.unwrap_or(d.vehicles);
+    let speed = fleet.speed.unwrap_or(d.speed);
+    if vehicles == 0 {
+        bail!("--vehicles must be at least 1");
+    }
+    attitude_service::wire::validate_vehicle_id(&format!("{}{}", fleet.vehicle_prefix, vehicles))
+        .map_err(|e| anyhow::anyhow!("--vehicle-prefix: {}", e.message))?;
+    service_config::validate_key_prefix(&fleet.prefix)
+        .map_err(|e| anyhow::anyhow!("--prefix: {e}"))?;
+    if !(speed >= 0.0 && speed.is_finite()) {
+        bail!("--speed must be 0 (as fast as possible) or positive");
+    }
+    Ok(SimulateOptions {
+        scenario: scenario_from_args(&fleet.scenario)?,
+        vehicles,
+        vehicle_prefix: fleet.vehicle_prefix.clone(),
+        filters: fleet.filters.clone(),
+        particles: fleet.particles,
+        speed,
+        seed: fleet.seed,
+        reset: !fleet.no_reset,
+    })
+}
+
+async fn simulate_cmd(args: SimulateArgs) -> Result<()> {
+    init_logging();
+    let options = fleet_options(
+        &args.fleet,
+        FleetDefaults {
+            vehicles: 3,
+            speed: 1.0,
+        },
+    )?;
+    let json = serde_json::json!({
+        "mode": "peer",
+        "connect": {"endpoints": args.connect},
+        "listen": {"endpoints": []},
+        "scouting": {"multicast": {"enabled": false}},
+    });
+    let session = zenoh::open(zenoh_config(&json.to_string(), &[], &[])?)
+        .await
+        .map_err(|e| anyhow::anyhow!("cannot open the zenoh session: {e}"))?;
+    let keys = Keys::new(&args.fleet.prefix);
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let i = interrupted.clone();
+        tokio::spawn(async move {
+            shutdown_signal().await;
+            i.store(true, Ordering::Relaxed);
+        });
+    }
+    let stats = simulate(&session, &keys, &options, || {
+        interrupted.load(Ordering::Relaxed)
+    })
+    .await?;
+    let _ = session.close().await;
+    println!(
+        "published {} vehicles: {:.0} s simulated in {:.1} s ({} gyro, {} vector, {} truth messages)",
+        stats.vehicles, stats.sim_time_s, stats.wall_s, stats.gyro_messages, stats.vector_messages, stats.truth_messages
+    );
+    Ok(())
+}
+
+async fn demo_cmd(mut args: DemoArgs) -> Result<()> {
+    init_logging();
+    let f = &mut args.fleet;
+    if f.scenario.scenario.is_none() {
+        f.scenario.scenario = Some(ScenarioName::MagnetometerLeo);
+        f.scenario.duration = f.scenario.duration.or(Some(14_400.0));
+    }
+    if f.filters.is_empty() {
+        f.filters = ["qpf:average", "qpf:propagated", "usque:average", "mekf"]
+            .iter()
+            .filter_map(|s| s.parse().ok())
+            .collect();
+    }
+    let options = fleet_options(
+        &args.fleet,
+        FleetDefaults {
+            vehicles: 4,
+            speed: 480.0,
+        },
+    )?;
+    let mut file = load_config(args.config.as_ref())?;
+    file.service.key_prefix = args.fleet.prefix.clone();
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let i = interrupted.clone();
+        tokio::spawn(async move {
+            shutdown_signal().await;
+            i.store(true, Ordering::Relaxed);
+        });
+    }
+    let interactive = std::io::stdout().is_terminal();
+    let (rows, stats) = demo(
+        &file.zenoh_json,
+        &args.listen,
+        file.service,
+        options,
+        interactive,
+        interrupted,
+    )
+    .await?;
+    if interactive {
+        print!("\x1b[2J\x1b[H");
+    }
+    println!("{}", render(&rows, Some(&stats)));
     Ok(())
 }

@@ -124,6 +124,8 @@ pub struct FilterConfig {
     pub particles: usize,
     /// Tuning of the QPF (kernel, bandwidth, resampling, progressive correction).
     pub qpf: QpfOptions,
+    /// Tuning of USQUE (Rodrigues parameters, λ).
+    pub usque: UsqueOptions,
 }
 
 impl FilterConfig {
@@ -133,6 +135,7 @@ impl FilterConfig {
             gyro,
             particles: 1000,
             qpf: QpfOptions::default(),
+            usque: UsqueOptions::default(),
         }
     }
 }
@@ -357,7 +360,7 @@ pub fn build_filter(
             initial.t_s,
         ))),
         FilterKind::Usque => Ok(Box::new(Driver::new(
-            Usque::new(config, initial, UsqueOptions::default())?,
+            Usque::new(config, initial, config.usque)?,
             initial.t_s,
         ))),
         FilterKind::Qpf => Ok(Box::new(Driver::new(

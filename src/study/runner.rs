@@ -147,9 +147,11 @@ fn run_one(config: &StudyConfig, run: usize) -> Vec<RunTrace> {
     config
         .filters
         .iter()
-        .enumerate()
-        .map(|(fi, spec)| {
-            let filter_seed = derive_seed(run_seed, 1000 + fi as u64);
+        .map(|spec| {
+            // Common random numbers: every filter of a run gets the same RNG seed, so comparisons
+            // between filters (e.g. the two fiducials) are paired and do not depend on the order of
+            // --filters.
+            let filter_seed = derive_seed(run_seed, 1000);
             run_filter(config, spec, &sim, &pcrb, stride, filter_seed)
         })
         .collect()

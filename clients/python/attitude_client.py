@@ -1,0 +1,361 @@
+"""Python client of the attitude service (contract v1, ``proto/README.md``).
+
+A thin, synchronous wrapper around a zenoh session that speaks the service's JSON messages::
+
+    from attitude_client import AttitudeClient
+    with AttitudeClient("tcp/127.0.0.1:7447") as client:
+        client.publish_gyro("sc1", 0.0, [0.0, 0.0, 0.01])
+        client.publish_vectors("sc1", 0.0, [([1, 0, 0], [0, 1, 0], 1e-4), ([0, 0, 1], [0, 0, 1], 1e-4)])
+        print(client.get_attitude("sc1"))  # {'vehicle': 'sc1', 't': 0.0, 'q': {'w': .., ..}, 'sigma_deg': [..]}
+
+Keys are ``P/V/<leaf>`` with ``P`` the service's key prefix (``prefix``, default ``attitude``) and ``V`` a
+vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). Quaternions are ``{"w", "x", "y", "z"}``: the
+orientation of the body in the reference frame (Hamilton), i.e. ``b = A(q) r`` with ``A(q)`` the transpose
+of the Hamilton rotation matrix of ``q``. Replies normalise ``w >= 0``.
+
+Queries return the parsed JSON reply (``dict`` / ``list``). An error reply of the service raises
+:class:`ServiceError` (``code``, ``message``, ``key``; codes are listed in ``proto/README.md``, e.g.
+``unknown_vehicle``, ``not_initialized``, ``bad_request``); a query that nobody answers before its timeout
+raises :class:`TimeoutError`. Concrete queries are retried until their timeout when no queryable is
+reachable yet (right after the session opens, before zenoh has propagated the service's declarations), so
+a client may be created before the service runs; :meth:`AttitudeClient.wait_for_service` waits explicitly.
+
+Subscription callbacks run on zenoh's threads: keep them short (append to a list, put into a
+``queue.Queue``) and never call blocking client methods from them.
+
+Runtime dependencies: the Python standard library and ``eclipse-zenoh`` (tested with 1.10.2).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import zenoh
+
+__all__ = ["AttitudeClient", "ServiceError", "KINDS", "attitude_error_deg"]
+
+log = logging.getLogger("attitude_client")
+
+#: Leaves that answer per-vehicle queries (``P/V/<kind>``, also as ``P/*/<kind>``).
+KINDS = ("attitude", "covariance", "state")
+
+_JSON = zenoh.Encoding.APPLICATION_JSON
+
+
+class ServiceError(Exception):
+    """An error reply of the service: a stable ``code``, a readable ``message`` and the ``key`` concerned."""
+
+    def __init__(self, code: str, message: str, key: str | None = None):
+        super().__init__(f"{code}: {message}" + (f" ({key})" if key else ""))
+        self.code = code
+        self.message = message
+        self.key = key
+
+    def __repr__(self) -> str:
+        return f"ServiceError(code={self.code!r}, message={self.message!r}, key={self.key!r})"
+
+
+def _vec3(v: Any, what: str) -> list[float]:
+    """Three floats from any sequence (list, tuple, numpy array)."""
+    out = [float(x) for x in v]
+    if len(out) != 3:
+        raise ValueError(f"{what} must have 3 components, got {len(out)}")
+    return out
+
+
+def _observation(o: Any) -> dict:
+    """An observation from a dict ``{body, ref, sigma[, sensor]}`` or a tuple ``(body, ref, sigma[, sensor])``."""
+    if isinstance(o, Mapping):
+        body, ref, sigma, sensor = o["body"], o["ref"], o["sigma"], o.get("sensor")
+    else:
+        if len(o) not in (3, 4):
+            raise ValueError("an observation tuple is (body, ref, sigma) or (body, ref, sigma, sensor)")
+        body, ref, sigma = o[0], o[1], o[2]
+        sensor = o[3] if len(o) == 4 else None
+    obs = {"body": _vec3(body, "body"), "ref": _vec3(ref, "ref"), "sigma": float(sigma)}
+    if sensor is not None:
+        obs["sensor"] = str(sensor)
+    return obs
+
+
+def _quaternion(q: Any) -> dict:
+    """A wire quaternion from a dict ``{w, x, y, z}`` or a sequence ``(w, x, y, z)`` (scalar first)."""
+    if isinstance(q, Mapping):
+        return {k: float(q[k]) for k in ("w", "x", "y", "z")}
+    w, x, y, z = (float(c) for c in q)
+    return {"w": w, "x": x, "y": y, "z": z}
+
+
+def _dumps(value: Any) -> bytes:
+    # NaN and infinities are not JSON: refuse them here rather than send something the service rejects.
+    try:
+        return json.dumps(value, allow_nan=False, separators=(",", ":")).encode()
+    except ValueError as e:
+        raise ValueError(f"cannot send a non-finite number: {e}") from None
+
+
+def _error_from(payload: bytes, key: str | None) -> Exception:
+    """The exception for an error reply: the service's JSON error, or zenoh's own (``Timeout``)."""
+    text = payload.decode("utf-8", errors="replace")
+    try:
+        msg = json.loads(text)
+    except ValueError:
+        msg = None
+    if isinstance(msg, dict) and "code" in msg:
+        return ServiceError(str(msg["code"]), str(msg.get("message", "")), msg.get("key", key))
+    if "timeout" in text.lower():
+        return TimeoutError(f"no reply to {key} in time ({text})")
+    return ServiceError("unknown", text, key)
+
+
+class AttitudeClient:
+    """A zenoh session speaking to the attitude service.
+
+    ``endpoint``: the zenoh endpoint of the service (or of a router in front of it). With
+    ``connect=True`` (the default) the session connects to it; with ``connect=False`` it listens on it
+    instead (for a service started with ``serve --connect``). The session is a zenoh peer with multicast
+    scouting off. ``prefix``: the service's key prefix (``service.key_prefix``). ``timeout``: default
+    timeout of queries, s. ``config``: an optional ``zenoh.Config`` used instead of the one built here.
+    """
+
+    def __init__(
+        self,
+        endpoint: str = "tcp/127.0.0.1:7447",
+        prefix: str = "attitude",
+        connect: bool = True,
+        timeout: float = 5.0,
+        config: zenoh.Config | None = None,
+    ):
+        prefix = prefix.strip("/")
+        if not prefix or any(c in prefix for c in "*$?#"):
+            raise ValueError(f"invalid key prefix {prefix!r}")
+        self.prefix = prefix
+        self.endpoint = endpoint
+        self.timeout = float(timeout)
+        if config is None:
+            config = zenoh.Config()
+            config.insert_json5("mode", '"peer"')
+            config.insert_json5("scouting/multicast/enabled", "false")
+            if connect:
+                config.insert_json5("connect/endpoints", json.dumps([endpoint]))
+            else:
+                config.insert_json5("listen/endpoints", json.dumps([endpoint]))
+        self.session = zenoh.open(config)
+
+    # ------------------------------------------------------------------------------------------
+    # Life cycle
+
+    def close(self) -> None:
+        """Closes the zenoh session (subscribers declared through it stop)."""
+        if not self.session.is_closed():
+            self.session.close()
+
+    def __enter__(self) -> "AttitudeClient":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def key(self, vehicle: str, leaf: str) -> str:
+        """``P/V/<leaf>``."""
+        return f"{self.prefix}/{vehicle}/{leaf}"
+
+    def wait_for_service(self, timeout: float = 10.0) -> dict:
+        """Polls ``P/@/health`` until the service answers; returns the health reply or raises TimeoutError."""
+        return self.health(timeout=timeout)
+
+    # ------------------------------------------------------------------------------------------
+    # Inputs
+
+    def put_raw(self, vehicle: str, leaf: str, payload: bytes | str) -> None:
+        """Puts ``payload`` on ``P/V/<leaf>`` as is (for tools and tests; no validation)."""
+        self.session.put(
+            self.key(vehicle, leaf),
+            payload,
+            encoding=_JSON,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+        )
+
+    def publish_gyro(self, vehicle: str, t: float, omega: Sequence[float]) -> None:
+        """One gyro sample: time ``t`` (s, the sender's clock), body rate ``omega`` (rad/s)."""
+        self.put_raw(vehicle, "gyro", _dumps({"t": float(t), "omega": _vec3(omega, "omega")}))
+
+    def publish_gyro_batch(self, vehicle: str, samples: Iterable[tuple[float, Sequence[float]]]) -> None:
+        """Gyro samples ``[(t, omega), ...]`` in one message (processed in order)."""
+        batch = [{"t": float(t), "omega": _vec3(w, "omega")} for t, w in samples]
+        if not batch:
+            raise ValueError("empty gyro batch")
+        self.put_raw(vehicle, "gyro", _dumps(batch))
+
+    def publish_vectors(self, vehicle: str, t: float, obs: Iterable[Any]) -> None:
+        """One vector-observation set at ``t``. ``obs``: dicts ``{"body", "ref", "sigma"[, "sensor"]}`` or
+        tuples ``(body, ref, sigma[, sensor])``; ``body`` in the body frame, ``ref`` the same direction
+        (or field) in the reference frame, ``sigma`` the per-axis 1σ noise of ``body`` (rad for unit vectors)."""
+        self.put_raw(vehicle, "vectors", _dumps({"t": float(t), "obs": [_observation(o) for o in obs]}))
+
+    def publish_vectors_batch(self, vehicle: str, sets: Iterable[tuple[float, Iterable[Any]]]) -> None:
+        """Vector-observation sets ``[(t, obs), ...]`` in one message (processed in order)."""
+        batch = [{"t": float(t), "obs": [_observation(o) for o in obs]} for t, obs in sets]
+        if not batch:
+            raise ValueError("empty vectors batch")
+        self.put_raw(vehicle, "vectors", _dumps(batch))
+
+    # ------------------------------------------------------------------------------------------
+    # Queries
+
+    def query(
+        self, selector: str, payload: bytes | str | None = None, timeout: float | None = None
+    ) -> list[tuple[str | None, bool, bytes]]:
+        """One zenoh get on ``selector`` (a key relative to the prefix, e.g. ``"*/attitude"``), waiting for
+        every reply: ``[(key, ok, payload), ...]`` (``key`` is None for error replies, which carry none).
+        Zero replies when no queryable matches."""
+        timeout = self.timeout if timeout is None else float(timeout)
+        out = []
+        for reply in self._get(f"{self.prefix}/{selector}", payload, timeout):
+            if reply.ok is not None:
+                out.append((str(reply.ok.key_expr), True, reply.ok.payload.to_bytes()))
+            else:
+                out.append((None, False, reply.err.payload.to_bytes()))
+        return out
+
+    def _get(self, key: str, payload: bytes | str | None, timeout: float):
+        kwargs = {}
+        if payload is not None:
+            kwargs["payload"] = payload
+            kwargs["encoding"] = _JSON
+        return self.session.get(
+            key,
+            consolidation=zenoh.ConsolidationMode.NONE,
+            timeout=timeout,
+            **kwargs,
+        )
+
+    def _call(self, key: str, payload: bytes | str | None = None, timeout: float | None = None) -> Any:
+        """A get that expects one reply: retried (while nothing answers) until ``timeout``."""
+        timeout = self.timeout if timeout is None else float(timeout)
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"nobody answered {key} within {timeout:g} s (is the service running?)")
+            for reply in self._get(key, payload, max(remaining, 0.05)):
+                if reply.ok is not None:
+                    return json.loads(reply.ok.payload.to_bytes())
+                raise _error_from(reply.err.payload.to_bytes(), key)
+            # No queryable matched (yet): declarations may still be on their way.
+            time.sleep(min(0.02, max(deadline - time.monotonic(), 0)))
+
+    def _vehicle_query(self, vehicle: str, kind: str, timeout: float | None) -> dict:
+        if not vehicle or any(c in vehicle for c in "/*$?#"):
+            raise ValueError(f"a concrete vehicle id is required, got {vehicle!r} (use get_all for every vehicle)")
+        return self._call(self.key(vehicle, kind), timeout=timeout)
+
+    def get_attitude(self, vehicle: str, timeout: float | None = None) -> dict:
+        """``{"vehicle", "t", "q", "sigma_deg"}`` of ``vehicle``'s latest estimate."""
+        return self._vehicle_query(vehicle, "attitude", timeout)
+
+    def get_covariance(self, vehicle: str, timeout: float | None = None) -> dict:
+        """``{"vehicle", "t", "cov", "sigma_deg"}``: ``cov`` 6×6 rows over ``[δα (rad); δβ (rad/s)]``."""
+        return self._vehicle_query(vehicle, "covariance", timeout)
+
+    def get_state(self, vehicle: str, timeout: float | None = None) -> dict:
+        """The full latest estimate (as published on ``P/V/estimate``)."""
+        return self._vehicle_query(vehicle, "state", timeout)
+
+    def get_all(self, kind: str = "attitude", timeout: float | None = None, errors: bool = False) -> dict:
+        """``P/*/<kind>``: ``{vehicle: reply}`` for every vehicle that has an estimate. One get, no retry:
+        ``{}`` when no vehicle has an estimate (or no service is reachable). With ``errors=True``, error
+        replies that name a vehicle are included as :class:`ServiceError` values; otherwise they are skipped."""
+        if kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+        out: dict[str, Any] = {}
+        for key, ok, payload in self.query(f"*/{kind}", timeout=timeout):
+            if ok:
+                vehicle = key[len(self.prefix) + 1 :].split("/", 1)[0]
+                out[vehicle] = json.loads(payload)
+                continue
+            err = _error_from(payload, None)
+            if isinstance(err, TimeoutError):
+                raise err
+            vehicle = None
+            if isinstance(err, ServiceError) and err.key and err.key.startswith(self.prefix + "/"):
+                vehicle = err.key[len(self.prefix) + 1 :].split("/", 1)[0]
+            if vehicle is None or "*" in vehicle:
+                raise err
+            if errors:
+                out[vehicle] = err
+        return out
+
+    def reset(self, vehicle: str, timeout: float | None = 15.0, **fields: Any) -> dict:
+        """(Re)initialises or reconfigures ``vehicle``'s filter; returns the reset reply
+        ``{"vehicle", "state", "filter", "fiducial", "particles", "estimate"}``.
+
+        ``fields`` (all optional): ``filter`` (``"mekf"``, ``"usque"``, ``"qpf"``), ``fiducial``
+        (``"average"``, ``"propagated"``), ``particles``, ``q`` (dict ``{w,x,y,z}`` or ``(w, x, y, z)``),
+        ``sigma_deg`` (one number or three), ``bias`` (rad/s), ``bias_sigma`` (rad/s, one or three), ``t``
+        (s). Without ``q`` the vehicle initialises again from its next usable vector-observation set."""
+        req: dict[str, Any] = {}
+        for name, value in fields.items():
+            if value is None:
+                continue
+            if name == "q":
+                value = _quaternion(value)
+            elif name in ("bias",):
+                value = _vec3(value, name)
+            elif name in ("sigma_deg", "bias_sigma"):
+                value = float(value) if isinstance(value, (int, float)) else [float(x) for x in value]
+            elif name == "t":
+                value = float(value)
+            req[name] = value
+        return self._call(self.key(vehicle, "reset"), payload=_dumps(req), timeout=timeout)
+
+    def vehicles(self, timeout: float | None = None) -> list[dict]:
+        """``P/@/vehicles``: one row per known vehicle (``vehicle``, ``state``, ``filter``, ``fiducial``, ``t``,
+        ``received``, ``processed``, ``rejected``, ``estimates``)."""
+        return self._call(f"{self.prefix}/@/vehicles", timeout=timeout)
+
+    def health(self, timeout: float | None = None) -> dict:
+        """``P/@/health``: service counters (``received``, ``processed``, ``estimates_published``,
+        ``rejected`` by code, ``vehicles``, ``queries``, ``uptime_s``, ``version``, ``status``)."""
+        return self._call(f"{self.prefix}/@/health", timeout=timeout)
+
+    # ------------------------------------------------------------------------------------------
+    # Outputs
+
+    def _subscribe(self, key: str, callback: Callable[[Any], None]):
+        def on_sample(sample: zenoh.Sample) -> None:
+            try:
+                message = json.loads(sample.payload.to_bytes())
+            except ValueError:
+                log.warning("not JSON on %s", sample.key_expr)
+                return
+            try:
+                callback(message)
+            except Exception:  # a callback must not take zenoh's thread down
+                log.exception("callback for %s failed", sample.key_expr)
+
+        return self.session.declare_subscriber(key, on_sample)
+
+    def subscribe_estimates(self, callback: Callable[[dict], None], vehicle: str = "*"):
+        """Calls ``callback(estimate)`` for every estimate published on ``P/<vehicle>/estimate``
+        (``vehicle`` may be ``*``). Returns the subscriber: keep it; ``undeclare()`` it to stop."""
+        return self._subscribe(self.key(vehicle, "estimate"), callback)
+
+    def subscribe_rejections(self, callback: Callable[[dict], None], vehicle: str = "*"):
+        """Calls ``callback({"code", "message", "key"})`` for every input the service refused for
+        ``vehicle`` (``P/<vehicle>/rejected``). Returns the subscriber: keep it."""
+        return self._subscribe(self.key(vehicle, "rejected"), callback)
+
+    def subscribe_truth(self, callback: Callable[[dict], None], vehicle: str = "*"):
+        """Calls ``callback(truth)`` for every truth message of the simulator (``P/<vehicle>/truth``)."""
+        return self._subscribe(self.key(vehicle, "truth"), callback)
+
+
+def attitude_error_deg(q_true: Mapping[str, float], q_est: Mapping[str, float]) -> float:
+    """Angle (deg) of the rotation between two wire quaternions: ``2·acos(|w|)`` of ``q_est⁻¹ · q_true``."""
+    dot = sum(q_true[k] * q_est[k] for k in ("w", "x", "y", "z"))
+    return math.degrees(2.0 * math.acos(min(1.0, abs(dot))))

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Black-box tests of the attitude service from Python (tests/python), against the real release binary.
+#
+#   bash scripts/python-tests.sh [pytest args...]
+#
+# Creates .venv at the repository root when missing, installs the pinned Python packages into it
+# (from PyPI), builds the release binary only when it is missing, and runs pytest with the venv's
+# Python. Exits with pytest's exit code. Needs only python3 (with venv) on a fresh machine, plus cargo
+# when the binary has to be built.
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+
+VENV="$ROOT/.venv"
+PY="$VENV/bin/python"
+
+# Versions installed and tested together.
+PACKAGES=(
+  "eclipse-zenoh==1.10.2"
+  "pytest==9.2.0"
+  "numpy==2.4.6"
+  "jsonschema==4.26.0"
+  "scipy==1.17.1"
+)
+
+if [[ ! -x "$PY" ]]; then
+  echo "python-tests: creating $VENV" >&2
+  python3 -m venv "$VENV"
+fi
+
+# Install only when something is missing or at another version (pip is slow even when satisfied).
+if ! "$PY" - "${PACKAGES[@]}" <<'PYEOF'
+import sys
+from importlib import metadata
+for spec in sys.argv[1:]:
+    name, version = spec.split("==")
+    try:
+        if metadata.version(name) != version:
+            sys.exit(1)
+    except metadata.PackageNotFoundError:
+        sys.exit(1)
+PYEOF
+then
+  echo "python-tests: installing ${PACKAGES[*]}" >&2
+  "$PY" -m pip install -q --disable-pip-version-check "${PACKAGES[@]}"
+fi
+
+BIN="$ROOT/target/release/attitude-service"
+if [[ ! -x "$BIN" ]]; then
+  echo "python-tests: $BIN is missing; building it" >&2
+  cargo build --release --locked
+fi
+
+set +e
+ATTITUDE_SERVICE_BIN="$BIN" "$PY" -m pytest -q tests/python "$@"
+code=$?
+set -e
+exit "$code"

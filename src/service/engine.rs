@@ -1,0 +1,507 @@
+//! The service's machinery without the network: vehicle registry, counters, the dispatcher that
+//! parses and routes inputs in arrival order, and the worker pool that runs the filters.
+//!
+//! Data flow: a zenoh subscriber callback only `try_send`s the raw sample into the bounded ingest
+//! channel (a full channel is counted, never waited on) → one dispatcher thread decodes and validates
+//! it (pure functions of `wire`) and appends the measurements to the vehicle's bounded inbox → the
+//! vehicle is scheduled once on the worker pool → a worker drains its inbox through the vehicle's
+//! filter and hands every output to the [`Sink`]. A vehicle is processed by one worker at a time, in
+//! arrival order; a slow vehicle occupies one worker and never blocks the others.
+
+use super::config::ServiceConfig;
+use super::keys::{Keys, Leaf};
+use super::vehicle::{Outcome, VehicleState};
+use crate::sensors::Measurement;
+use crate::wire::{
+    decode_batch, validate_vehicle_id, AttitudeMsg, CovarianceMsg, EstimateMsg, GyroMsg, HealthMsg,
+    RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
+};
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Instant;
+
+/// Where the engine's outputs go: `(key, JSON payload)`. The service puts them on zenoh; tests
+/// collect them.
+pub type Sink = Arc<dyn Fn(&str, Vec<u8>) + Send + Sync>;
+
+/// A raw input as received.
+pub struct Inbound {
+    pub key: String,
+    pub payload: Vec<u8>,
+}
+
+/// What a vehicle's worker processes, in order.
+enum Input {
+    Measurement(Measurement),
+    Reset(
+        ResetMsg,
+        tokio::sync::oneshot::Sender<Result<ResetReplyMsg, Rejection>>,
+    ),
+}
+
+/// Service-wide counters (atomics: read by queries without locks).
+#[derive(Default)]
+pub struct Counters {
+    pub received: AtomicU64,
+    pub processed: AtomicU64,
+    pub estimates: AtomicU64,
+    pub queries: AtomicU64,
+    /// Samples the subscriber callback could not hand over (the ingest channel was full).
+    pub ingest_overflow: AtomicU64,
+    rejected: [AtomicU64; RejectCode::ALL.len()],
+}
+
+impl Counters {
+    pub fn reject(&self, code: RejectCode) {
+        let i = RejectCode::ALL.iter().position(|c| *c == code).unwrap_or(0);
+        self.rejected[i].fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub fn rejected_by_code(&self) -> BTreeMap<String, u64> {
+        RejectCode::ALL
+            .iter()
+            .zip(&self.rejected)
+            .map(|(c, n)| (c.as_str().to_string(), n.load(Ordering::Relaxed)))
+            .filter(|(_, n)| *n > 0)
+            .collect()
+    }
+}
+
+/// One vehicle: its inbox, its filter state, and what queries read without waiting for the filter.
+pub struct Vehicle {
+    pub id: String,
+    inbox: Mutex<VecDeque<Input>>,
+    scheduled: AtomicBool,
+    state: Mutex<VehicleState>,
+    /// The last published estimate (queries read this, never the filter).
+    snapshot: RwLock<Option<Arc<EstimateMsg>>>,
+    info: RwLock<VehicleInfoMsg>,
+    received: AtomicU64,
+    processed: AtomicU64,
+    rejected: AtomicU64,
+}
+
+impl Vehicle {
+    fn new(id: &str, state: VehicleState) -> Self {
+        let info = info_of(&state, 0, 0, 0);
+        Vehicle {
+            id: id.to_string(),
+            inbox: Mutex::new(VecDeque::new()),
+            scheduled: AtomicBool::new(false),
+            state: Mutex::new(state),
+            snapshot: RwLock::new(None),
+            info: RwLock::new(info),
+            received: AtomicU64::new(0),
+            processed: AtomicU64::new(0),
+            rejected: AtomicU64::new(0),
+        }
+    }
+
+    pub fn snapshot(&self) -> Option<Arc<EstimateMsg>> {
+        self.snapshot.read().map(|s| s.clone()).unwrap_or(None)
+    }
+
+    pub fn info(&self) -> VehicleInfoMsg {
+        let mut info = self
+            .info
+            .read()
+            .map(|i| i.clone())
+            .unwrap_or_else(|e| e.into_inner().clone());
+        info.received = self.received.load(Ordering::Relaxed);
+        info.processed = self.processed.load(Ordering::Relaxed);
+        info.rejected = self.rejected.load(Ordering::Relaxed);
+        info
+    }
+}
+
+fn info_of(state: &VehicleState, received: u64, processed: u64, rejected: u64) -> VehicleInfoMsg {
+    VehicleInfoMsg {
+        vehicle: state.id().to_string(),
+        state: if state.is_tracking() {
+            "tracking"
+        } else {
+            "initializing"
+        }
+        .into(),
+        filter: state.spec().kind.as_str().into(),
+        fiducial: state.spec().fiducial.map(|f| f.as_str().into()),
+        t: state.last_t(),
+        received,
+        processed,
+        rejected,
+        estimates: state.seq(),
+    }
+}
+
+/// Inputs a worker takes from one vehicle before giving other vehicles a turn.
+const TURN: usize = 256;
+
+/// The engine shared by the dispatcher, the workers and the query handlers.
+pub struct Engine {
+    pub config: Arc<ServiceConfig>,
+    pub keys: Keys,
+    pub counters: Counters,
+    started: Instant,
+    vehicles: RwLock<HashMap<String, Arc<Vehicle>>>,
+    /// `None` tells a worker to stop.
+    work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
+    sink: Sink,
+}
+
+/// The running threads of an engine.
+pub struct EngineThreads {
+    /// Where subscriber callbacks hand raw samples (`try_send` only); `None` stops the dispatcher.
+    pub ingest: crossbeam_channel::Sender<Option<Inbound>>,
+    dispatcher: std::thread::JoinHandle<()>,
+    workers: Vec<std::thread::JoinHandle<()>>,
+    engine: Arc<Engine>,
+}
+
+impl EngineThreads {
+    /// Stops the dispatcher after the inputs already received, then the workers after the vehicles
+    /// already scheduled, then processes whatever is still in any inbox, so nothing accepted is lost.
+    pub fn shutdown(self) {
+        let _ = self.ingest.send(None);
+        let _ = self.dispatcher.join();
+        for _ in &self.workers {
+            let _ = self.engine.work_tx.send(None);
+        }
+        for h in self.workers {
+            let _ = h.join();
+        }
+        for v in self.engine.vehicles() {
+            while !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty() {
+                self.engine.work(&v);
+            }
+        }
+    }
+}
+
+/// Capacity of the channel between the subscriber callbacks and the dispatcher.
+pub const INGEST_CAPACITY: usize = 1 << 16;
+
+impl Engine {
+    /// Starts the dispatcher and `config.workers` worker threads.
+    pub fn start(config: ServiceConfig, sink: Sink) -> (Arc<Engine>, EngineThreads) {
+        let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
+        let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Inbound>>(INGEST_CAPACITY);
+        let workers = config.workers.max(1);
+        let engine = Arc::new(Engine {
+            keys: Keys::new(&config.key_prefix),
+            config: Arc::new(config),
+            counters: Counters::default(),
+            started: Instant::now(),
+            vehicles: RwLock::new(HashMap::new()),
+            work_tx,
+            sink,
+        });
+        let dispatcher = {
+            let engine = engine.clone();
+            std::thread::Builder::new()
+                .name("attitude-dispatch".into())
+                .spawn(move || {
+                    while let Ok(Some(inbound)) = ingest_rx.recv() {
+                        engine.dispatch(inbound);
+                    }
+                })
+                .expect("spawn the dispatcher thread")
+        };
+        let workers = (0..workers)
+            .map(|i| {
+                let engine = engine.clone();
+                let rx = work_rx.clone();
+                std::thread::Builder::new()
+                    .name(format!("attitude-worker-{i}"))
+                    .spawn(move || {
+                        while let Ok(Some(vehicle)) = rx.recv() {
+                            engine.work(&vehicle);
+                        }
+                    })
+                    .expect("spawn a worker thread")
+            })
+            .collect();
+        (
+            engine.clone(),
+            EngineThreads {
+                ingest: ingest_tx,
+                dispatcher,
+                workers,
+                engine,
+            },
+        )
+    }
+
+    pub fn uptime_s(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
+    pub fn vehicle(&self, id: &str) -> Option<Arc<Vehicle>> {
+        self.vehicles.read().ok()?.get(id).cloned()
+    }
+
+    /// Every vehicle, sorted by id.
+    pub fn vehicles(&self) -> Vec<Arc<Vehicle>> {
+        let mut v: Vec<Arc<Vehicle>> = self
+            .vehicles
+            .read()
+            .map(|m| m.values().cloned().collect())
+            .unwrap_or_default();
+        v.sort_by(|a, b| a.id.cmp(&b.id));
+        v
+    }
+
+    fn get_or_create(&self, id: &str) -> Result<Arc<Vehicle>, Rejection> {
+        if let Some(v) = self.vehicle(id) {
+            return Ok(v);
+        }
+        let mut map = self.vehicles.write().unwrap_or_else(|e| e.into_inner());
+        if let Some(v) = map.get(id) {
+            return Ok(v.clone());
+        }
+        if map.len() >= self.config.limits.max_vehicles {
+            return Err(Rejection::new(
+                RejectCode::TooManyVehicles,
+                format!(
+                    "the service tracks its maximum of {} vehicles",
+                    self.config.limits.max_vehicles
+                ),
+            ));
+        }
+        let state = VehicleState::new(id, self.config.filter_for(id).clone());
+        let v = Arc::new(Vehicle::new(id, state));
+        map.insert(id.to_string(), v.clone());
+        tracing::info!(vehicle = id, "new vehicle");
+        Ok(v)
+    }
+
+    /// Publishes a rejection on `P/V/rejected` and counts it.
+    pub fn reject(&self, vehicle: &str, key: &str, r: &Rejection) {
+        self.counters.reject(r.code);
+        if let Some(v) = self.vehicle(vehicle) {
+            v.rejected.fetch_add(1, Ordering::Relaxed);
+        }
+        tracing::debug!(key, code = r.code.as_str(), message = %r.message, "rejected");
+        let msg = r.to_message(key);
+        if let Ok(payload) = serde_json::to_vec(&msg) {
+            (self.sink)(&self.keys.vehicle(vehicle, Leaf::Rejected), payload);
+        }
+    }
+
+    /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
+    pub fn dispatch(&self, inbound: Inbound) {
+        let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
+            return;
+        };
+        let limits = &self.config.limits.input;
+        let decoded: Result<Vec<Measurement>, Rejection> = match leaf {
+            Leaf::Gyro => decode_batch::<GyroMsg>(&inbound.payload, limits).and_then(|items| {
+                items
+                    .iter()
+                    .enumerate()
+                    .map(|(i, g)| {
+                        g.to_domain()
+                            .map(Measurement::Gyro)
+                            .map_err(|e| at(i, items.len(), e))
+                    })
+                    .collect()
+            }),
+            Leaf::Vectors => {
+                decode_batch::<VectorsMsg>(&inbound.payload, limits).and_then(|items| {
+                    items
+                        .iter()
+                        .enumerate()
+                        .map(|(i, v)| {
+                            v.to_domain(limits)
+                                .map(Measurement::Vectors)
+                                .map_err(|e| at(i, items.len(), e))
+                        })
+                        .collect()
+                })
+            }
+            _ => return,
+        };
+        let n = decoded.as_ref().map(|d| d.len() as u64).unwrap_or(1);
+        self.counters.received.fetch_add(n, Ordering::Relaxed);
+        if let Err(r) = validate_vehicle_id(vehicle) {
+            return self.reject(vehicle, &inbound.key, &r);
+        }
+        let measurements = match decoded {
+            Ok(m) => m,
+            Err(r) => return self.reject(vehicle, &inbound.key, &r),
+        };
+        let v = match self.get_or_create(vehicle) {
+            Ok(v) => v,
+            Err(r) => return self.reject(vehicle, &inbound.key, &r),
+        };
+        v.received.fetch_add(n, Ordering::Relaxed);
+        {
+            let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
+            if inbox.len() + measurements.len() > self.config.limits.queue_per_vehicle {
+                let waiting = inbox.len();
+                drop(inbox);
+                let r = Rejection::new(
+                    RejectCode::QueueFull,
+                    format!(
+                        "vehicle {vehicle} has {} samples waiting (limit {}); these {n} are dropped",
+                        waiting, self.config.limits.queue_per_vehicle,
+                    ),
+                );
+                return self.reject(vehicle, &inbound.key, &r);
+            }
+            inbox.extend(measurements.into_iter().map(Input::Measurement));
+        }
+        self.schedule(&v);
+    }
+
+    fn schedule(&self, v: &Arc<Vehicle>) {
+        if !v.scheduled.swap(true, Ordering::AcqRel) {
+            let _ = self.work_tx.send(Some(v.clone()));
+        }
+    }
+
+    /// Queues a reset for `vehicle` (creating it) and returns the channel its reply arrives on.
+    pub fn request_reset(
+        &self,
+        vehicle: &str,
+        req: ResetMsg,
+    ) -> Result<tokio::sync::oneshot::Receiver<Result<ResetReplyMsg, Rejection>>, Rejection> {
+        validate_vehicle_id(vehicle)?;
+        if self.vehicle(vehicle).is_none() {
+            // A refused reset must not create the vehicle: try it on a fresh state first.
+            let config = self.config.filter_for(vehicle).clone();
+            VehicleState::new(vehicle, config.clone()).on_reset(&req, &config)?;
+        }
+        let v = self.get_or_create(vehicle)?;
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        v.inbox
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push_back(Input::Reset(req, tx));
+        self.schedule(&v);
+        Ok(rx)
+    }
+
+    /// Drains a vehicle's inbox through its filter (a worker thread).
+    fn work(&self, v: &Arc<Vehicle>) {
+        {
+            let mut state = v.state.lock().unwrap_or_else(|e| e.into_inner());
+            for _ in 0..TURN {
+                let next = v
+                    .inbox
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .pop_front();
+                let Some(input) = next else { break };
+                match input {
+                    Input::Measurement(m) => {
+                        let key_leaf = match m {
+                            Measurement::Gyro(_) => Leaf::Gyro,
+                            Measurement::Vectors(_) => Leaf::Vectors,
+                        };
+                        match state.on_measurement(m) {
+                            Ok(outcome) => {
+                                v.processed.fetch_add(1, Ordering::Relaxed);
+                                self.counters.processed.fetch_add(1, Ordering::Relaxed);
+                                if let Outcome::Estimate(e) = outcome {
+                                    self.publish_estimate(v, e);
+                                }
+                            }
+                            Err(r) => self.reject(&v.id, &self.keys.vehicle(&v.id, key_leaf), &r),
+                        }
+                    }
+                    Input::Reset(req, reply) => {
+                        let base = self.config.filter_for(&v.id).clone();
+                        let result = state.on_reset(&req, &base);
+                        // (A refused reset is counted by the query handler that answers it.)
+                        if let Ok(r) = &result {
+                            *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) =
+                                r.estimate.clone().map(Arc::new);
+                            if let Some(e) = &r.estimate {
+                                self.publish_estimate(v, e.clone());
+                            }
+                        }
+                        let _ = reply.send(result);
+                    }
+                }
+            }
+            let info = info_of(&state, 0, 0, 0);
+            *v.info.write().unwrap_or_else(|e| e.into_inner()) = info;
+        }
+        v.scheduled.store(false, Ordering::Release);
+        let pending = !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty();
+        if pending {
+            self.schedule(v);
+        }
+    }
+
+    fn publish_estimate(&self, v: &Vehicle, e: EstimateMsg) {
+        let payload = match serde_json::to_vec(&e) {
+            Ok(p) => p,
+            Err(err) => {
+                tracing::error!(vehicle = %v.id, %err, "cannot serialise an estimate");
+                return;
+            }
+        };
+        *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(e));
+        self.counters.estimates.fetch_add(1, Ordering::Relaxed);
+        (self.sink)(&self.keys.vehicle(&v.id, Leaf::Estimate), payload);
+    }
+
+    // --------------------------------------------------------------------------------------------
+    // Queries: pure reads of snapshots and counters.
+
+    /// The estimate of a known vehicle, or why there is none.
+    pub fn state_of(&self, vehicle: &str) -> Result<Arc<EstimateMsg>, Rejection> {
+        let v = self.vehicle(vehicle).ok_or_else(|| {
+            Rejection::new(
+                RejectCode::UnknownVehicle,
+                format!("no vehicle '{vehicle}' is known to this service"),
+            )
+        })?;
+        v.snapshot().ok_or_else(|| {
+            Rejection::new(
+                RejectCode::NotInitialized,
+                format!("vehicle '{vehicle}' has no estimate yet (waiting for a vector-observation set that determines its attitude)"),
+            )
+        })
+    }
+
+    pub fn attitude_of(&self, vehicle: &str) -> Result<AttitudeMsg, Rejection> {
+        self.state_of(vehicle).map(|e| e.attitude())
+    }
+
+    pub fn covariance_of(&self, vehicle: &str) -> Result<CovarianceMsg, Rejection> {
+        self.state_of(vehicle).map(|e| e.covariance())
+    }
+
+    pub fn health(&self) -> HealthMsg {
+        let c = &self.counters;
+        let mut rejected = c.rejected_by_code();
+        let overflow = c.ingest_overflow.load(Ordering::Relaxed);
+        if overflow > 0 {
+            rejected.insert("ingest_overflow".into(), overflow);
+        }
+        HealthMsg {
+            status: "ok".into(),
+            version: env!("CARGO_PKG_VERSION").into(),
+            uptime_s: self.uptime_s(),
+            vehicles: self.vehicles.read().map(|m| m.len()).unwrap_or(0),
+            received: c.received.load(Ordering::Relaxed),
+            processed: c.processed.load(Ordering::Relaxed),
+            estimates_published: c.estimates.load(Ordering::Relaxed),
+            rejected,
+            queries: c.queries.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// Names the batch item in a rejection (as `decode_batch` does for shape errors); a single sample
+/// needs no index.
+fn at(index: usize, len: usize, r: Rejection) -> Rejection {
+    if len > 1 {
+        Rejection::new(r.code, format!("batch item {index}: {}", r.message))
+    } else {
+        r
+    }
+}

@@ -1,0 +1,266 @@
+//! The network service: zenoh subscribers and queryables around the [`engine::Engine`].
+//!
+//! `run(session, config, shutdown)` is the whole service: one `select!` loop over the queryables and
+//! the shutdown signal. Subscriber callbacks only hand raw samples to the engine's bounded ingest
+//! channel; filters run on the engine's worker threads, never on zenoh's threads or the async runtime.
+
+pub mod config;
+pub mod engine;
+pub mod keys;
+pub mod vehicle;
+
+use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
+use config::ServiceConfig;
+use engine::{Engine, Inbound, Sink};
+use keys::Leaf;
+use serde::Serialize;
+use std::future::Future;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::Duration;
+use thiserror::Error;
+use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
+use zenoh::qos::CongestionControl;
+use zenoh::query::Query;
+use zenoh::Wait;
+
+#[derive(Debug, Error)]
+pub enum ServiceError {
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+}
+
+fn zerr(e: impl std::fmt::Display) -> ServiceError {
+    ServiceError::Zenoh(e.to_string())
+}
+
+/// How long a reset waits for the vehicle's worker.
+const RESET_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Runs the service on `session` until `shutdown` resolves, then stops taking input, lets the workers
+/// finish, and closes the session.
+pub async fn run(
+    session: zenoh::Session,
+    config: ServiceConfig,
+    shutdown: impl Future<Output = ()>,
+) -> Result<(), ServiceError> {
+    let publisher = session.clone();
+    // Outputs are put from the worker threads (plain threads, so the synchronous `wait` is right);
+    // `Block` applies back-pressure instead of silently dropping estimates.
+    let sink: Sink = Arc::new(move |key: &str, payload: Vec<u8>| {
+        if let Err(e) = publisher
+            .put(key, payload)
+            .encoding(Encoding::APPLICATION_JSON)
+            .congestion_control(CongestionControl::Block)
+            .express(true)
+            .wait()
+        {
+            tracing::warn!(key, error = %e, "put failed");
+        }
+    });
+    let (engine, threads) = Engine::start(config, sink);
+    let keys = engine.keys.clone();
+
+    let callback = {
+        let ingest = threads.ingest.clone();
+        let engine = engine.clone();
+        move |sample: zenoh::sample::Sample| {
+            let inbound = Inbound {
+                key: sample.key_expr().as_str().to_string(),
+                payload: sample.payload().to_bytes().into_owned(),
+            };
+            // Never block zenoh's thread: count what cannot be taken.
+            if ingest.try_send(Some(inbound)).is_err() {
+                engine
+                    .counters
+                    .ingest_overflow
+                    .fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    };
+    let gyro = session
+        .declare_subscriber(keys.all(Leaf::Gyro))
+        .callback(callback.clone())
+        .await
+        .map_err(zerr)?;
+    let vectors = session
+        .declare_subscriber(keys.all(Leaf::Vectors))
+        .callback(callback)
+        .await
+        .map_err(zerr)?;
+    let q_attitude = session
+        .declare_queryable(keys.all(Leaf::Attitude))
+        .await
+        .map_err(zerr)?;
+    let q_covariance = session
+        .declare_queryable(keys.all(Leaf::Covariance))
+        .await
+        .map_err(zerr)?;
+    let q_state = session
+        .declare_queryable(keys.all(Leaf::State))
+        .await
+        .map_err(zerr)?;
+    let q_reset = session
+        .declare_queryable(keys.all(Leaf::Reset))
+        .await
+        .map_err(zerr)?;
+    let q_vehicles = session
+        .declare_queryable(keys.vehicles())
+        .await
+        .map_err(zerr)?;
+    let q_health = session
+        .declare_queryable(keys.health())
+        .await
+        .map_err(zerr)?;
+    tracing::info!(prefix = keys.prefix(), "attitude-service running");
+
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            _ = &mut shutdown => break,
+            Ok(q) = q_attitude.recv_async() => {
+                per_vehicle(&engine, &q, Leaf::Attitude, |e, v| e.attitude_of(v).map(|a| json(&a))).await
+            }
+            Ok(q) = q_covariance.recv_async() => {
+                per_vehicle(&engine, &q, Leaf::Covariance, |e, v| e.covariance_of(v).map(|c| json(&c))).await
+            }
+            Ok(q) = q_state.recv_async() => {
+                per_vehicle(&engine, &q, Leaf::State, |e, v| e.state_of(v).map(|s| json(&*s))).await
+            }
+            Ok(q) = q_reset.recv_async() => {
+                // A reset waits for the vehicle's worker: answer it in its own task.
+                let engine = engine.clone();
+                tokio::spawn(async move { reset(&engine, q).await });
+            }
+            Ok(q) = q_vehicles.recv_async() => {
+                engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+                let list: Vec<_> = engine.vehicles().iter().map(|v| v.info()).collect();
+                reply(&q, q.key_expr().as_str(), json(&list)).await;
+            }
+            Ok(q) = q_health.recv_async() => {
+                engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+                reply(&q, q.key_expr().as_str(), json(&engine.health())).await;
+            }
+        }
+    }
+    tracing::info!("shutting down");
+    // Stop taking input first, then let the workers finish, then close the session.
+    let _ = gyro.undeclare().await;
+    let _ = vectors.undeclare().await;
+    for q in [
+        q_attitude,
+        q_covariance,
+        q_state,
+        q_reset,
+        q_vehicles,
+        q_health,
+    ] {
+        let _ = q.undeclare().await;
+    }
+    let _ = tokio::task::spawn_blocking(move || threads.shutdown()).await;
+    session.close().await.map_err(zerr)?;
+    Ok(())
+}
+
+fn json<T: Serialize + ?Sized>(value: &T) -> Vec<u8> {
+    serde_json::to_vec(value).unwrap_or_else(|e| {
+        format!(r#"{{"code":"internal","message":"cannot serialise: {e}","key":""}}"#).into_bytes()
+    })
+}
+
+async fn reply(q: &Query, key: &str, payload: Vec<u8>) {
+    if let Err(e) = q
+        .reply(key, payload)
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(key, error = %e, "reply failed");
+    }
+}
+
+async fn reply_err(q: &Query, r: &Rejection) {
+    let msg: ErrorMsg = r.to_message(q.key_expr().as_str());
+    if let Err(e) = q
+        .reply_err(json(&msg))
+        .encoding(Encoding::APPLICATION_JSON)
+        .await
+    {
+        tracing::warn!(error = %e, "error reply failed");
+    }
+}
+
+/// A get on `P/V/<leaf>`: one vehicle (an error when it is unknown or has no estimate), or, when the
+/// vehicle chunk is a wildcard, one reply per matching vehicle that has an estimate, each on its
+/// concrete key.
+async fn per_vehicle(
+    engine: &Engine,
+    q: &Query,
+    leaf: Leaf,
+    answer: impl Fn(&Engine, &str) -> Result<Vec<u8>, Rejection>,
+) {
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+    let asked = q.key_expr().clone();
+    if let Some((vehicle, _)) = engine.keys.split(asked.as_str()) {
+        if !vehicle.contains(['*', '$']) {
+            match answer(engine, vehicle) {
+                Ok(payload) => reply(q, asked.as_str(), payload).await,
+                Err(r) => {
+                    engine.counters.reject(r.code);
+                    reply_err(q, &r).await
+                }
+            }
+            return;
+        }
+    }
+    for v in engine.vehicles() {
+        let key = engine.keys.vehicle(&v.id, leaf);
+        let matches = KeyExpr::try_from(key.as_str())
+            .map(|k| k.intersects(&asked))
+            .unwrap_or(false);
+        if matches {
+            if let Ok(payload) = answer(engine, &v.id) {
+                reply(q, &key, payload).await;
+            }
+        }
+    }
+}
+
+async fn reset(engine: &Engine, q: Query) {
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+    let key = q.key_expr().as_str().to_string();
+    let fail = |code: RejectCode, m: String| Rejection::new(code, m);
+    let result: Result<Vec<u8>, Rejection> = async {
+        let (vehicle, _) = engine
+            .keys
+            .split(&key)
+            .filter(|(v, _)| !v.contains(['*', '$']))
+            .ok_or_else(|| {
+                fail(
+                    RejectCode::BadRequest,
+                    "reset one vehicle at a time: P/V/reset with a concrete V".into(),
+                )
+            })?;
+        let req: ResetMsg = match q.payload() {
+            Some(p) if !p.is_empty() => decode_one(&p.to_bytes(), &engine.config.limits.input)?,
+            _ => ResetMsg::default(),
+        };
+        let rx = engine.request_reset(vehicle, req)?;
+        match tokio::time::timeout(RESET_TIMEOUT, rx).await {
+            Ok(Ok(Ok(reply))) => Ok(json(&reply)),
+            Ok(Ok(Err(r))) => Err(r),
+            Ok(Err(_)) | Err(_) => Err(fail(
+                RejectCode::Internal,
+                "the vehicle's worker did not answer the reset".into(),
+            )),
+        }
+    }
+    .await;
+    match result {
+        Ok(payload) => reply(&q, &key, payload).await,
+        Err(r) => {
+            engine.counters.reject(r.code);
+            reply_err(&q, &r).await
+        }
+    }
+}

@@ -1,0 +1,1142 @@
+//! The wire contract in `proto/` (prose, JSON Schemas, examples) against the Rust wire types of
+//! `src/wire`: these tests fail when the two drift apart.
+//!
+//! * Every example decodes into its Rust type and re-encodes to the same JSON value, and every example
+//!   file is in [`EXAMPLES`].
+//! * Every example is valid under its schema, and its numbers are consistent (unit quaternions,
+//!   `w ≥ 0` in what the service sends, symmetric positive-definite covariances whose attitude diagonal
+//!   matches `sigma_deg`, observations that agree with the truth under `b = A(q) r`).
+//! * Every field of every Rust message (a fully populated instance, serialised) is in its schema's
+//!   `properties`, and every schema property is a field of the Rust message.
+//! * Every rejection code is in the error table of `proto/README.md` and in the schemas' enumerations.
+//!
+//! The schemas are checked by a small validator of the JSON Schema subset they use; it refuses any
+//! keyword it does not know, so a schema cannot silently use more than is checked here. (Python validates
+//! live replies against the same files with `jsonschema`.)
+
+use attitude_service::attitude::{q_method, Quaternion};
+use attitude_service::wire::{
+    decode_batch, validate_vehicle_id, AttitudeMsg, CovarianceMsg, DiagnosticsMsg, ErrorMsg,
+    EstimateMsg, GyroMsg, HealthMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg,
+    RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
+};
+use nalgebra::{Matrix6, Vector3};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+const DRAFT_2020_12: &str = "https://json-schema.org/draft/2020-12/schema";
+/// The vehicle-id pattern of the schemas; the validator checks it with `wire::validate_vehicle_id`.
+const VEHICLE_PATTERN: &str = "^[A-Za-z0-9_-]{1,64}$";
+/// The error code of a query for a vehicle that exists but has no estimate yet (the contract names it
+/// even if `RejectCode` lost it).
+const NOT_INITIALIZED: &str = "not_initialized";
+/// A key of `P/@/health`'s `rejected` counters that is not an error code: samples dropped on arrival
+/// (`service::engine::Engine::health`).
+const INGEST_OVERFLOW: &str = "ingest_overflow";
+
+type RoundTrip = fn(&Value) -> Result<(), String>;
+
+/// Every example: file in `proto/examples/`, the schema it follows (`proto/schemas/NAME.schema.json`)
+/// and the Rust type it decodes into.
+const EXAMPLES: &[(&str, &str, RoundTrip)] = &[
+    ("gyro.json", "gyro", round_trip::<GyroMsg>),
+    ("gyro-batch.json", "gyro", round_trip::<Vec<GyroMsg>>),
+    ("vectors.json", "vectors", round_trip::<VectorsMsg>),
+    (
+        "vectors-batch.json",
+        "vectors",
+        round_trip::<Vec<VectorsMsg>>,
+    ),
+    (
+        "vectors-magnetometer.json",
+        "vectors",
+        round_trip::<VectorsMsg>,
+    ),
+    ("estimate-qpf.json", "estimate", round_trip::<EstimateMsg>),
+    ("estimate-mekf.json", "estimate", round_trip::<EstimateMsg>),
+    ("state.json", "state", round_trip::<EstimateMsg>),
+    ("attitude.json", "attitude", round_trip::<AttitudeMsg>),
+    ("covariance.json", "covariance", round_trip::<CovarianceMsg>),
+    (
+        "reset-request.json",
+        "reset-request",
+        round_trip::<ResetMsg>,
+    ),
+    (
+        "reset-request-initialize.json",
+        "reset-request",
+        round_trip::<ResetMsg>,
+    ),
+    (
+        "reset-reply.json",
+        "reset-reply",
+        round_trip::<ResetReplyMsg>,
+    ),
+    (
+        "reset-reply-initializing.json",
+        "reset-reply",
+        round_trip::<ResetReplyMsg>,
+    ),
+    ("error.json", "error", round_trip::<ErrorMsg>),
+    ("rejected.json", "error", round_trip::<ErrorMsg>),
+    (
+        "vehicles.json",
+        "vehicles",
+        round_trip::<Vec<VehicleInfoMsg>>,
+    ),
+    ("health.json", "health", round_trip::<HealthMsg>),
+    ("truth.json", "truth", round_trip::<TruthMsg>),
+];
+
+fn round_trip<T: DeserializeOwned + Serialize>(example: &Value) -> Result<(), String> {
+    let typed: T = serde_json::from_value(example.clone())
+        .map_err(|e| format!("does not decode into its Rust type: {e}"))?;
+    let again = serde_json::to_value(&typed).map_err(|e| format!("does not encode: {e}"))?;
+    if &again == example {
+        Ok(())
+    } else {
+        Err(format!(
+            "re-encodes differently\n    example: {example}\n    Rust:    {again}"
+        ))
+    }
+}
+
+fn proto_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("proto")
+}
+
+fn read_json(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{} is not JSON: {e}", path.display()))
+}
+
+fn example(name: &str) -> Value {
+    read_json(&proto_dir().join("examples").join(name))
+}
+
+fn schema(name: &str) -> Value {
+    read_json(
+        &proto_dir()
+            .join("schemas")
+            .join(format!("{name}.schema.json")),
+    )
+}
+
+/// File names in a folder of `proto/` that end with `suffix`.
+fn files_in(folder: &str, suffix: &str) -> BTreeSet<String> {
+    let dir = proto_dir().join(folder);
+    std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(suffix))
+        .collect()
+}
+
+fn schema_names() -> BTreeSet<String> {
+    files_in("schemas", ".schema.json")
+        .into_iter()
+        .map(|f| f.trim_end_matches(".schema.json").to_string())
+        .collect()
+}
+
+/// Every code an error reply or a rejection can carry.
+fn all_codes() -> BTreeSet<String> {
+    let mut codes: BTreeSet<String> = RejectCode::ALL
+        .iter()
+        .map(|c| c.as_str().to_string())
+        .collect();
+    codes.insert(NOT_INITIALIZED.to_string());
+    codes
+}
+
+fn fail_on(errors: Vec<String>) {
+    assert!(
+        errors.is_empty(),
+        "{} problem(s):\n{}",
+        errors.len(),
+        errors.join("\n")
+    );
+}
+
+// ------------------------------------------------------------------------------------------------
+// A validator of the JSON Schema (draft 2020-12) subset the schemas use.
+
+const ANNOTATIONS: &[&str] = &["$schema", "$id", "title", "description", "$defs"];
+
+struct Validator<'a> {
+    root: &'a Value,
+}
+
+impl Validator<'_> {
+    /// Follows a local `$ref` (`#/$defs/NAME`).
+    fn resolve<'s>(&'s self, schema: &'s Value) -> &'s Value {
+        match schema.get("$ref").and_then(Value::as_str) {
+            Some(r) => {
+                let pointer = r
+                    .strip_prefix('#')
+                    .unwrap_or_else(|| panic!("only local $ref are supported, got {r}"));
+                let target = self
+                    .root
+                    .pointer(pointer)
+                    .unwrap_or_else(|| panic!("$ref {r} does not resolve"));
+                self.resolve(target)
+            }
+            None => schema,
+        }
+    }
+
+    fn errors(&self, schema: &Value, value: &Value, at: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        self.check(schema, value, at, &mut out);
+        out
+    }
+
+    fn check(&self, schema: &Value, value: &Value, at: &str, out: &mut Vec<String>) {
+        let Some(keywords) = schema.as_object() else {
+            panic!("schema at {at} is not an object: {schema}");
+        };
+        for (keyword, arg) in keywords {
+            match keyword.as_str() {
+                k if ANNOTATIONS.contains(&k) => {}
+                "$ref" => self.check(self.resolve(schema), value, at, out),
+                "type" => {
+                    let types: Vec<&str> = match arg {
+                        Value::String(t) => vec![t.as_str()],
+                        Value::Array(ts) => ts.iter().map(|t| t.as_str().unwrap()).collect(),
+                        _ => panic!("bad type at {at}"),
+                    };
+                    if !types.iter().any(|t| has_type(value, t)) {
+                        out.push(format!("{at}: {value} is not of type {types:?}"));
+                    }
+                }
+                "enum" => {
+                    if !arg.as_array().unwrap().contains(value) {
+                        out.push(format!("{at}: {value} is not one of {arg}"));
+                    }
+                }
+                "const" => {
+                    if arg != value {
+                        out.push(format!("{at}: {value} is not {arg}"));
+                    }
+                }
+                "properties" => {
+                    if let Value::Object(map) = value {
+                        for (name, sub) in arg.as_object().unwrap() {
+                            if let Some(v) = map.get(name) {
+                                self.check(sub, v, &format!("{at}.{name}"), out);
+                            }
+                        }
+                    }
+                }
+                "required" => {
+                    if let Value::Object(map) = value {
+                        for name in arg.as_array().unwrap() {
+                            let name = name.as_str().unwrap();
+                            if !map.contains_key(name) {
+                                out.push(format!("{at}: required field {name} is missing"));
+                            }
+                        }
+                    }
+                }
+                "additionalProperties" => {
+                    if let Value::Object(map) = value {
+                        let listed = schema.get("properties").and_then(Value::as_object);
+                        for (name, v) in map {
+                            if listed.is_some_and(|l| l.contains_key(name)) {
+                                continue;
+                            }
+                            match arg {
+                                Value::Bool(false) => {
+                                    out.push(format!("{at}: field {name} is not allowed"))
+                                }
+                                Value::Bool(true) => {}
+                                sub => self.check(sub, v, &format!("{at}.{name}"), out),
+                            }
+                        }
+                    }
+                }
+                "propertyNames" => {
+                    if let Value::Object(map) = value {
+                        for name in map.keys() {
+                            let key = Value::String(name.clone());
+                            self.check(arg, &key, &format!("{at}[key {name}]"), out);
+                        }
+                    }
+                }
+                "items" => {
+                    if let Value::Array(items) = value {
+                        for (i, v) in items.iter().enumerate() {
+                            self.check(arg, v, &format!("{at}[{i}]"), out);
+                        }
+                    }
+                }
+                "minItems" | "maxItems" => {
+                    if let Value::Array(items) = value {
+                        let n = arg.as_u64().unwrap() as usize;
+                        let bad = if keyword == "minItems" {
+                            items.len() < n
+                        } else {
+                            items.len() > n
+                        };
+                        if bad {
+                            out.push(format!(
+                                "{at}: {} items violates {keyword} {n}",
+                                items.len()
+                            ));
+                        }
+                    }
+                }
+                "minLength" | "maxLength" => {
+                    if let Value::String(s) = value {
+                        let n = arg.as_u64().unwrap() as usize;
+                        let len = s.chars().count();
+                        let bad = if keyword == "minLength" {
+                            len < n
+                        } else {
+                            len > n
+                        };
+                        if bad {
+                            out.push(format!("{at}: length {len} violates {keyword} {n}"));
+                        }
+                    }
+                }
+                "minimum" | "exclusiveMinimum" | "maximum" | "exclusiveMaximum" => {
+                    if let Some(x) = value.as_f64() {
+                        let limit = arg.as_f64().unwrap();
+                        let ok = match keyword.as_str() {
+                            "minimum" => x >= limit,
+                            "exclusiveMinimum" => x > limit,
+                            "maximum" => x <= limit,
+                            _ => x < limit,
+                        };
+                        if !ok {
+                            out.push(format!("{at}: {x} violates {keyword} {limit}"));
+                        }
+                    }
+                }
+                "pattern" => {
+                    assert_eq!(
+                        arg.as_str(),
+                        Some(VEHICLE_PATTERN),
+                        "{at}: the only pattern the schemas use is the vehicle id"
+                    );
+                    if let Value::String(s) = value {
+                        if validate_vehicle_id(s).is_err() {
+                            out.push(format!("{at}: {s:?} is not a vehicle id"));
+                        }
+                    }
+                }
+                "oneOf" | "anyOf" => {
+                    let valid = arg
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .filter(|branch| self.errors(branch, value, at).is_empty())
+                        .count();
+                    let ok = if keyword == "oneOf" {
+                        valid == 1
+                    } else {
+                        valid >= 1
+                    };
+                    if !ok {
+                        out.push(format!("{at}: {valid} branches of {keyword} match {value}"));
+                    }
+                }
+                other => panic!("{at}: schema keyword {other} is not supported by this test"),
+            }
+        }
+    }
+
+    /// The branch of a `oneOf`/`anyOf` that `value` is valid under (or the schema itself).
+    fn branch<'s>(&'s self, schema: &'s Value, value: &Value) -> &'s Value {
+        let schema = self.resolve(schema);
+        for keyword in ["oneOf", "anyOf"] {
+            if let Some(branches) = schema.get(keyword).and_then(Value::as_array) {
+                let chosen = branches
+                    .iter()
+                    .find(|b| self.errors(b, value, "").is_empty())
+                    .unwrap_or_else(|| panic!("no branch of {keyword} matches {value}"));
+                return self.branch(chosen, value);
+            }
+        }
+        schema
+    }
+
+    /// Compares the field names of `value` with the `properties` of the schema, at every depth.
+    fn compare_fields(&self, schema: &Value, value: &Value, at: &str, out: &mut Vec<String>) {
+        let schema = self.branch(schema, value);
+        match value {
+            Value::Object(map) => {
+                if let Some(props) = schema.get("properties").and_then(Value::as_object) {
+                    for name in map.keys().filter(|k| !props.contains_key(*k)) {
+                        out.push(format!("{at}: Rust field {name} is not in the schema"));
+                    }
+                    for name in props.keys().filter(|k| !map.contains_key(*k)) {
+                        out.push(format!(
+                            "{at}: schema property {name} is not a field of the Rust message"
+                        ));
+                    }
+                    for (name, v) in map {
+                        if let Some(sub) = props.get(name) {
+                            self.compare_fields(sub, v, &format!("{at}.{name}"), out);
+                        }
+                    }
+                } else if let Some(sub) =
+                    schema.get("additionalProperties").filter(|s| s.is_object())
+                {
+                    // A map (code -> count): its keys are data, not fields.
+                    for (name, v) in map {
+                        self.compare_fields(sub, v, &format!("{at}.{name}"), out);
+                    }
+                } else {
+                    out.push(format!(
+                        "{at}: the schema does not describe this object's fields"
+                    ));
+                }
+            }
+            Value::Array(items) => {
+                if let Some(sub) = schema.get("items") {
+                    for (i, v) in items.iter().enumerate() {
+                        self.compare_fields(sub, v, &format!("{at}[{i}]"), out);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+impl Validator<'_> {
+    /// Compares the fields present in a minimal message with the schema's `required`, at every depth.
+    fn compare_required(&self, schema: &Value, value: &Value, at: &str, out: &mut Vec<String>) {
+        let schema = self.branch(schema, value);
+        match value {
+            Value::Object(map) => {
+                let Some(props) = schema.get("properties").and_then(Value::as_object) else {
+                    return; // a map: its keys are data
+                };
+                let required: BTreeSet<&str> = schema
+                    .get("required")
+                    .and_then(Value::as_array)
+                    .map(|r| r.iter().map(|x| x.as_str().unwrap()).collect())
+                    .unwrap_or_default();
+                let sent: BTreeSet<&str> = map.keys().map(String::as_str).collect();
+                if required != sent {
+                    out.push(format!(
+                        "{at}: the schema requires {required:?}, Rust always sends {sent:?}"
+                    ));
+                }
+                for (name, v) in map {
+                    if let Some(sub) = props.get(name) {
+                        self.compare_required(sub, v, &format!("{at}.{name}"), out);
+                    }
+                }
+            }
+            Value::Array(items) => {
+                if let Some(sub) = schema.get("items") {
+                    for (i, v) in items.iter().enumerate() {
+                        self.compare_required(sub, v, &format!("{at}[{i}]"), out);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+fn has_type(value: &Value, t: &str) -> bool {
+    match t {
+        "null" => value.is_null(),
+        "boolean" => value.is_boolean(),
+        "string" => value.is_string(),
+        "array" => value.is_array(),
+        "object" => value.is_object(),
+        "number" => value.is_number(),
+        // Draft 2020-12: a number with a zero fractional part is an integer.
+        "integer" => {
+            value.is_i64() || value.is_u64() || value.as_f64().is_some_and(|x| x.fract() == 0.0)
+        }
+        other => panic!("unknown type {other}"),
+    }
+}
+
+fn schema_errors(schema_name: &str, value: &Value) -> Vec<String> {
+    let root = schema(schema_name);
+    let v = Validator { root: &root };
+    v.errors(&root, value, schema_name)
+}
+
+// ------------------------------------------------------------------------------------------------
+// Fully populated Rust messages: every optional field present.
+
+fn full_estimate() -> EstimateMsg {
+    let mut cov = [[0.0; 6]; 6];
+    for (i, row) in cov.iter_mut().enumerate() {
+        row[i] = if i < 3 { 1.0e-8 } else { 1.0e-14 };
+    }
+    EstimateMsg {
+        vehicle: "sc1".into(),
+        t: 12.5,
+        q: QuaternionMsg {
+            w: 0.6,
+            x: 0.0,
+            y: 0.8,
+            z: 0.0,
+        },
+        bias: [1.0e-6, -2.0e-6, 3.0e-7],
+        cov,
+        sigma_deg: [1.0e-4f64.to_degrees(); 3],
+        filter: "qpf".into(),
+        fiducial: Some("average".into()),
+        seq: 7,
+        diagnostics: DiagnosticsMsg {
+            propagations: 70,
+            updates: 7,
+            nis: Some(2.9),
+            nis_dof: Some(6),
+            ess: Some(512.5),
+            particles: Some(1000),
+            concentration: Some(0.999),
+            eigen_gap: Some(0.998),
+            pc_stages: Some(2),
+            resamples: Some(3),
+            fiducial_fallbacks: Some(0),
+            rejected: BTreeMap::from([("out_of_order".to_string(), 1)]),
+        },
+    }
+}
+
+fn full_observation() -> ObservationMsg {
+    ObservationMsg {
+        body: [1.0, 0.0, 0.0],
+        reference: [0.0, 1.0, 0.0],
+        sigma: 1.0e-4,
+        sensor: Some("st1".into()),
+    }
+}
+
+/// (schema, a fully populated message of the Rust type that schema describes).
+fn full_messages() -> Vec<(&'static str, Value)> {
+    fn v<T: Serialize>(t: T) -> Value {
+        serde_json::to_value(t).unwrap()
+    }
+    let gyro = GyroMsg {
+        t: 12.5,
+        omega: [0.0, 1.0e-3, -2.0e-3],
+    };
+    let vectors = VectorsMsg {
+        t: 12.5,
+        obs: vec![full_observation(), full_observation()],
+    };
+    let reset = ResetMsg {
+        filter: Some("qpf".into()),
+        fiducial: Some("propagated".into()),
+        particles: Some(2000),
+        q: Some(QuaternionMsg {
+            w: 0.0,
+            x: -0.6,
+            y: 0.0,
+            z: 0.8,
+        }),
+        sigma_deg: Some(PerAxis::Three([1.0, 2.0, 3.0])),
+        bias: Some([0.0, 0.0, 1.0e-6]),
+        bias_sigma: Some(PerAxis::One(5.0e-6)),
+        t: Some(100.0),
+    };
+    let reset_other_forms = ResetMsg {
+        sigma_deg: Some(PerAxis::One(2.0)),
+        bias_sigma: Some(PerAxis::Three([1.0e-6, 2.0e-6, 3.0e-6])),
+        ..reset.clone()
+    };
+    let reset_reply = ResetReplyMsg {
+        vehicle: "sc1".into(),
+        state: "tracking".into(),
+        filter: "qpf".into(),
+        fiducial: Some("average".into()),
+        particles: Some(1000),
+        estimate: Some(full_estimate()),
+    };
+    let vehicle = VehicleInfoMsg {
+        vehicle: "sc1".into(),
+        state: "tracking".into(),
+        filter: "usque".into(),
+        fiducial: Some("propagated".into()),
+        t: Some(12.5),
+        received: 10,
+        processed: 9,
+        rejected: 1,
+        estimates: 3,
+    };
+    let health = HealthMsg {
+        status: "ok".into(),
+        version: "0.1.0".into(),
+        uptime_s: 3.5,
+        vehicles: 1,
+        received: 10,
+        processed: 9,
+        estimates_published: 3,
+        rejected: BTreeMap::from([
+            (NOT_INITIALIZED.to_string(), 1),
+            ("queue_full".to_string(), 2),
+            (INGEST_OVERFLOW.to_string(), 5),
+        ]),
+        queries: 4,
+    };
+    let truth = TruthMsg {
+        vehicle: "sc1".into(),
+        t: 12.5,
+        q: QuaternionMsg {
+            w: 0.6,
+            x: 0.0,
+            y: -0.8,
+            z: 0.0,
+        },
+        bias: [1.0e-6, -2.0e-6, 3.0e-7],
+    };
+    let error = Rejection::new(RejectCode::OutOfOrder, "too old").to_message("attitude/sc1/gyro");
+    vec![
+        ("gyro", v(&gyro)),
+        ("gyro", v(vec![gyro.clone(), gyro])),
+        ("vectors", v(&vectors)),
+        ("vectors", v(vec![vectors])),
+        ("estimate", v(full_estimate())),
+        ("state", v(full_estimate())),
+        ("attitude", v(full_estimate().attitude())),
+        ("covariance", v(full_estimate().covariance())),
+        ("reset-request", v(&reset)),
+        ("reset-request", v(&reset_other_forms)),
+        ("reset-reply", v(&reset_reply)),
+        ("error", v(&error)),
+        ("vehicles", v(vec![vehicle])),
+        ("health", v(&health)),
+        ("truth", v(&truth)),
+    ]
+}
+
+// ------------------------------------------------------------------------------------------------
+// (a), (b): examples
+
+#[test]
+fn every_example_round_trips_through_its_rust_type() {
+    let mut errors = Vec::new();
+    for (file, _, round_trip) in EXAMPLES {
+        if let Err(e) = round_trip(&example(file)) {
+            errors.push(format!("examples/{file}: {e}"));
+        }
+    }
+    fail_on(errors);
+}
+
+#[test]
+fn every_example_file_is_in_the_table_and_every_schema_has_an_example() {
+    let on_disk = files_in("examples", ".json");
+    let listed: BTreeSet<String> = EXAMPLES.iter().map(|(f, _, _)| f.to_string()).collect();
+    let stray: Vec<_> = on_disk.difference(&listed).collect();
+    let missing: Vec<_> = listed.difference(&on_disk).collect();
+    assert!(
+        stray.is_empty(),
+        "examples not in the table of tests/proto.rs: {stray:?}"
+    );
+    assert!(
+        missing.is_empty(),
+        "examples in the table but not in proto/examples: {missing:?}"
+    );
+
+    let schemas = schema_names();
+    let used: BTreeSet<String> = EXAMPLES.iter().map(|(_, s, _)| s.to_string()).collect();
+    assert_eq!(
+        used, schemas,
+        "every schema has an example, and every example a schema"
+    );
+}
+
+#[test]
+fn every_example_is_valid_under_its_schema() {
+    let mut errors = Vec::new();
+    for (file, schema_name, _) in EXAMPLES {
+        for e in schema_errors(schema_name, &example(file)) {
+            errors.push(format!("examples/{file}: {e}"));
+        }
+    }
+    fail_on(errors);
+}
+
+#[test]
+fn the_schemas_refuse_what_the_service_refuses() {
+    let cases: &[(&str, Value)] = &[
+        ("gyro", serde_json::json!({"t": 1.0, "omega": [0.0, 0.0]})),
+        (
+            "gyro",
+            serde_json::json!({"t": 1.0, "omega": [0.0, 0.0, 0.0], "extra": 1}),
+        ),
+        ("gyro", serde_json::json!([])),
+        ("gyro", serde_json::json!({"omega": [0.0, 0.0, 0.0]})),
+        ("vectors", serde_json::json!({"t": 1.0, "obs": []})),
+        (
+            "vectors",
+            serde_json::json!({"t": 1.0, "obs": [{"body": [1.0, 0.0, 0.0], "ref": [1.0, 0.0, 0.0], "sigma": 0.0}]}),
+        ),
+        (
+            "vectors",
+            serde_json::json!({"t": 1.0, "obs": [{"body": [1.0, 0.0, 0.0], "ref": [1.0, 0.0, 0.0], "sigma": 1.0, "sensor": ""}]}),
+        ),
+        (
+            "attitude",
+            serde_json::json!({"vehicle": "a.b", "t": 1.0, "q": {"w": 1.0, "x": 0.0, "y": 0.0, "z": 0.0}, "sigma_deg": [1.0, 1.0, 1.0]}),
+        ),
+        (
+            "attitude",
+            serde_json::json!({"vehicle": "a", "t": 1.0, "q": {"w": -1.0, "x": 0.0, "y": 0.0, "z": 0.0}, "sigma_deg": [1.0, 1.0, 1.0]}),
+        ),
+        (
+            "error",
+            serde_json::json!({"code": "no_such_code", "message": "", "key": "k"}),
+        ),
+        (
+            "reset-request",
+            serde_json::json!({"sigma_deg": [1.0, 2.0]}),
+        ),
+        ("reset-request", serde_json::json!({"filter": "ekf"})),
+    ];
+    let limits = InputLimits::default();
+    for (schema_name, value) in cases {
+        assert!(
+            !schema_errors(schema_name, value).is_empty(),
+            "{schema_name} accepts {value}"
+        );
+        // The inputs among them are refused by the service's decoding and validation too.
+        let payload = value.to_string();
+        let service_refuses = match *schema_name {
+            "gyro" => decode_batch::<GyroMsg>(payload.as_bytes(), &limits)
+                .and_then(|b| {
+                    b.iter()
+                        .map(GyroMsg::to_domain)
+                        .collect::<Result<Vec<_>, _>>()
+                })
+                .is_err(),
+            "vectors" => decode_batch::<VectorsMsg>(payload.as_bytes(), &limits)
+                .and_then(|b| {
+                    b.iter()
+                        .map(|s| s.to_domain(&limits))
+                        .collect::<Result<Vec<_>, _>>()
+                })
+                .is_err(),
+            _ => continue,
+        };
+        assert!(
+            service_refuses,
+            "the service accepts {value}, which {schema_name}.schema.json refuses"
+        );
+    }
+}
+
+fn quaternion(msg: &QuaternionMsg) -> Quaternion {
+    Quaternion::new(msg.x, msg.y, msg.z, msg.w)
+}
+
+fn check_unit(q: &QuaternionMsg, at: &str, errors: &mut Vec<String>) {
+    let norm = quaternion(q).norm();
+    if (norm - 1.0).abs() > 1e-9 {
+        errors.push(format!("{at}: quaternion norm {norm}"));
+    }
+    if q.w < 0.0 {
+        errors.push(format!(
+            "{at}: sent quaternions have w ≥ 0, got w = {}",
+            q.w
+        ));
+    }
+}
+
+fn check_covariance(cov: &[[f64; 6]; 6], sigma_deg: &[f64; 3], at: &str, errors: &mut Vec<String>) {
+    let p = Matrix6::from_fn(|i, j| cov[i][j]);
+    if p != p.transpose() {
+        errors.push(format!("{at}: covariance is not symmetric"));
+    }
+    if p.cholesky().is_none() {
+        errors.push(format!("{at}: covariance is not positive definite"));
+    }
+    for i in 0..3 {
+        let expected = p[(i, i)].sqrt().to_degrees();
+        if ((sigma_deg[i] - expected) / expected).abs() > 1e-12 {
+            errors.push(format!(
+                "{at}: sigma_deg[{i}] = {} but sqrt(cov[{i}][{i}]) = {expected} deg",
+                sigma_deg[i]
+            ));
+        }
+    }
+}
+
+fn check_estimate(e: &EstimateMsg, at: &str, errors: &mut Vec<String>) {
+    check_unit(&e.q, at, errors);
+    check_covariance(&e.cov, &e.sigma_deg, at, errors);
+    let mekf = e.filter == "mekf";
+    if mekf != e.fiducial.is_none() {
+        errors.push(format!("{at}: fiducial is null exactly for the MEKF"));
+    }
+    if (e.filter == "qpf") != e.diagnostics.particles.is_some() {
+        errors.push(format!(
+            "{at}: diagnostics.particles is present exactly for the qpf"
+        ));
+    }
+}
+
+#[test]
+fn example_numbers_are_consistent() {
+    let mut errors = Vec::new();
+    let estimate = |f: &str| -> EstimateMsg { serde_json::from_value(example(f)).unwrap() };
+    for f in ["estimate-qpf.json", "estimate-mekf.json", "state.json"] {
+        check_estimate(&estimate(f), f, &mut errors);
+    }
+    let reply: ResetReplyMsg = serde_json::from_value(example("reset-reply.json")).unwrap();
+    match &reply.estimate {
+        Some(e) => check_estimate(e, "reset-reply.json", &mut errors),
+        None => errors.push("reset-reply.json: the reply to a reset with q has an estimate".into()),
+    }
+
+    // attitude.json and covariance.json are the short forms of estimate-qpf.json.
+    let qpf = estimate("estimate-qpf.json");
+    let attitude: AttitudeMsg = serde_json::from_value(example("attitude.json")).unwrap();
+    let covariance: CovarianceMsg = serde_json::from_value(example("covariance.json")).unwrap();
+    if attitude != qpf.attitude() {
+        errors.push("attitude.json is not estimate-qpf.json's attitude()".into());
+    }
+    if covariance != qpf.covariance() {
+        errors.push("covariance.json is not estimate-qpf.json's covariance()".into());
+    }
+
+    // The reset reply starts from the request's attitude and sigmas.
+    let request: ResetMsg = serde_json::from_value(example("reset-request.json")).unwrap();
+    if let Some(e) = &reply.estimate {
+        if Some(e.q) != request.q || Some(e.t) != request.t {
+            errors.push("reset-reply.json does not start at reset-request.json's q and t".into());
+        }
+        let sigma = request.sigma_deg.unwrap().to_vector();
+        for i in 0..3 {
+            if (e.sigma_deg[i] - sigma[i]).abs() > 1e-12 * sigma[i] {
+                errors.push("reset-reply.json's sigma_deg is not the request's".into());
+            }
+        }
+    }
+
+    let truth: TruthMsg = serde_json::from_value(example("truth.json")).unwrap();
+    check_unit(&truth.q, "truth.json", &mut errors);
+    let request_q = request.q.expect("reset-request.json gives q");
+    if let Err(r) = request_q.to_domain() {
+        errors.push(format!("reset-request.json: q refused: {}", r.message));
+    }
+    let vehicles: Vec<VehicleInfoMsg> = serde_json::from_value(example("vehicles.json")).unwrap();
+    for v in &vehicles {
+        if (v.filter == "mekf") != v.fiducial.is_none() {
+            errors.push(format!(
+                "vehicles.json {}: fiducial is null exactly for the MEKF",
+                v.vehicle
+            ));
+        }
+    }
+    let health: HealthMsg = serde_json::from_value(example("health.json")).unwrap();
+    if health.vehicles != vehicles.len() {
+        errors.push("health.json and vehicles.json count different vehicles".into());
+    }
+    fail_on(errors);
+}
+
+/// The examples agree with the quaternion convention `b = A(q) r`: the star-tracker set of
+/// `vectors.json` is `truth.json`'s attitude seen through 6-arcsec noise, the q-method recovers that
+/// attitude, `estimate-qpf.json` is close to it, and the magnetometer reading of
+/// `vectors-magnetometer.json` agrees with `estimate-mekf.json`.
+#[test]
+fn examples_follow_the_quaternion_convention() {
+    let limits = InputLimits::default();
+    let truth: TruthMsg = serde_json::from_value(example("truth.json")).unwrap();
+    let q_true = truth.q.to_domain().unwrap();
+
+    let set: VectorsMsg = serde_json::from_value(example("vectors.json")).unwrap();
+    assert_eq!(set.t, truth.t);
+    let set = set.to_domain(&limits).unwrap();
+    for (i, o) in set.observations.iter().enumerate() {
+        let residual = (o.body - q_true.attitude_matrix() * o.reference).norm();
+        assert!(
+            residual < 5.0 * o.sigma,
+            "vectors.json obs {i}: |b - A(q) r| = {residual:e}"
+        );
+    }
+    let solution = q_method(&set.observations).unwrap();
+    // The q-method's error is within 4σ of its own covariance (a narrow field of view leaves the
+    // roll about the boresight much less certain than the two other axes).
+    let q_method_error = q_true.small_angle_error(&solution.q);
+    for k in 0..3 {
+        let sigma = solution.covariance[(k, k)].sqrt();
+        assert!(
+            q_method_error[k].abs() < 4.0 * sigma,
+            "q-method error {q_method_error} vs 1σ {sigma:e} about axis {k}"
+        );
+    }
+
+    let qpf: EstimateMsg = serde_json::from_value(example("estimate-qpf.json")).unwrap();
+    let q_est = qpf.q.to_domain().unwrap();
+    let error = q_true.small_angle_error(&q_est);
+    for i in 0..3 {
+        let sigma = qpf.sigma_deg[i].to_radians();
+        assert!(
+            error[i].abs() < 3.0 * sigma,
+            "estimate-qpf.json error {error} vs 1σ {sigma:e}"
+        );
+    }
+
+    let mag: VectorsMsg = serde_json::from_value(example("vectors-magnetometer.json")).unwrap();
+    let mekf: EstimateMsg = serde_json::from_value(example("estimate-mekf.json")).unwrap();
+    assert_eq!(mag.t, mekf.t);
+    let a = mekf.q.to_domain().unwrap().attitude_matrix();
+    for o in mag.to_domain(&limits).unwrap().observations {
+        let residual = (o.body - a * o.reference).norm();
+        assert!(
+            residual < 5.0 * o.sigma,
+            "magnetometer residual {residual} nT"
+        );
+    }
+
+    // The worked example of proto/README.md: +90° about reference z sees reference y as body x.
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let q = QuaternionMsg {
+        w: h,
+        x: 0.0,
+        y: 0.0,
+        z: h,
+    }
+    .to_domain()
+    .unwrap();
+    let b = q.attitude_matrix() * Vector3::new(0.0, 1.0, 0.0);
+    assert!((b - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12, "b = {b}");
+}
+
+/// The input examples pass the service's own decoding and validation.
+#[test]
+fn input_examples_are_accepted_by_the_service() {
+    let limits = InputLimits::default();
+    let bytes = |f: &str| std::fs::read(proto_dir().join("examples").join(f)).unwrap();
+    for f in ["gyro.json", "gyro-batch.json"] {
+        let batch: Vec<GyroMsg> = decode_batch(&bytes(f), &limits)
+            .unwrap_or_else(|r| panic!("{f}: {} {}", r.code.as_str(), r.message));
+        assert!(
+            batch.windows(2).all(|w| w[0].t <= w[1].t),
+            "{f}: times go back"
+        );
+        for g in batch {
+            g.to_domain()
+                .unwrap_or_else(|r| panic!("{f}: {}", r.message));
+        }
+    }
+    for f in [
+        "vectors.json",
+        "vectors-batch.json",
+        "vectors-magnetometer.json",
+    ] {
+        let batch: Vec<VectorsMsg> = decode_batch(&bytes(f), &limits)
+            .unwrap_or_else(|r| panic!("{f}: {} {}", r.code.as_str(), r.message));
+        let mut previous = f64::NEG_INFINITY;
+        for set in batch {
+            assert!(set.t >= previous, "{f}: times go back");
+            previous = set.t;
+            set.to_domain(&limits)
+                .unwrap_or_else(|r| panic!("{f}: {}", r.message));
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
+// (c): error codes
+
+#[test]
+fn every_code_is_in_the_readme_error_table_and_the_schemas() {
+    let codes = all_codes();
+    let readme = std::fs::read_to_string(proto_dir().join("README.md")).unwrap();
+    let section = readme
+        .split("\n## Errors")
+        .nth(1)
+        .expect("proto/README.md has a section ## Errors");
+    let section = section.split("\n## ").next().unwrap();
+    let table: BTreeSet<String> = section
+        .lines()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split('`').next())
+        .map(str::to_string)
+        .collect();
+    assert_eq!(
+        table, codes,
+        "the error table of proto/README.md lists exactly the codes"
+    );
+
+    let enum_of = |schema_name: &str, pointer: &str| -> BTreeSet<String> {
+        schema(schema_name)
+            .pointer(pointer)
+            .and_then(Value::as_array)
+            .unwrap_or_else(|| panic!("{schema_name}.schema.json has no enum at {pointer}"))
+            .iter()
+            .map(|c| c.as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(
+        enum_of("error", "/properties/code/enum"),
+        codes,
+        "error.schema.json"
+    );
+    let mut health_keys = codes.clone();
+    health_keys.insert(INGEST_OVERFLOW.to_string());
+    assert_eq!(
+        enum_of("health", "/properties/rejected/propertyNames/enum"),
+        health_keys,
+        "health.schema.json rejected: every code and ingest_overflow"
+    );
+    for s in ["estimate", "state"] {
+        assert_eq!(
+            enum_of(
+                s,
+                "/$defs/diagnostics/properties/rejected/propertyNames/enum"
+            ),
+            codes,
+            "{s}.schema.json diagnostics.rejected"
+        );
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
+// (d): schema files
+
+#[test]
+fn every_schema_is_draft_2020_12_with_a_title_and_named_in_the_readme() {
+    let readme = std::fs::read_to_string(proto_dir().join("README.md")).unwrap();
+    let names = schema_names();
+    assert!(names.len() >= 12, "schemas found: {names:?}");
+    for name in &names {
+        let s = schema(name);
+        assert_eq!(s["$schema"], DRAFT_2020_12, "{name}.schema.json: $schema");
+        assert!(
+            s["title"].as_str().is_some_and(|t| !t.is_empty()),
+            "{name}.schema.json has a title"
+        );
+        assert!(
+            readme.contains(&format!("`{name}.schema.json`")),
+            "README names {name}.schema.json"
+        );
+    }
+    for file in files_in("examples", ".json") {
+        assert!(
+            readme.contains(&format!("`{file}`")),
+            "README names examples/{file}"
+        );
+    }
+    // state is the estimate under another name.
+    let strip = |mut v: Value| {
+        let o = v.as_object_mut().unwrap();
+        o.remove("title");
+        o.remove("description");
+        v
+    };
+    assert_eq!(
+        strip(schema("state")),
+        strip(schema("estimate")),
+        "state and estimate schemas agree"
+    );
+}
+
+// ------------------------------------------------------------------------------------------------
+// (e): Rust fields against schema properties
+
+#[test]
+fn every_rust_field_is_in_its_schema_and_every_schema_property_in_rust() {
+    let messages = full_messages();
+    let covered: BTreeSet<String> = messages.iter().map(|(s, _)| s.to_string()).collect();
+    assert_eq!(
+        covered,
+        schema_names(),
+        "every schema has a fully populated Rust message"
+    );
+    let mut errors = Vec::new();
+    for (schema_name, value) in &messages {
+        let root = schema(schema_name);
+        let validator = Validator { root: &root };
+        validator.compare_fields(&root, value, schema_name, &mut errors);
+        // The Rust types' own serialisation is valid under the schema too.
+        errors.extend(validator.errors(&root, value, schema_name));
+    }
+    fail_on(errors);
+}
+
+/// Required fields: the fields a Rust message always sends (a minimal message, every optional field
+/// absent) are exactly the schema's `required`, at every depth.
+#[test]
+fn required_fields_are_what_rust_always_sends() {
+    let mut minimal: Vec<(&str, Value)> = full_messages()
+        .into_iter()
+        .filter(|(s, _)| {
+            ![
+                "vectors",
+                "estimate",
+                "state",
+                "reset-request",
+                "reset-reply",
+            ]
+            .contains(s)
+        })
+        .collect();
+    let estimate = EstimateMsg {
+        fiducial: None,
+        diagnostics: DiagnosticsMsg::default(),
+        ..full_estimate()
+    };
+    minimal.extend([
+        (
+            "reset-request",
+            serde_json::to_value(ResetMsg::default()).unwrap(),
+        ),
+        (
+            "vectors",
+            serde_json::to_value(VectorsMsg {
+                t: 1.0,
+                obs: vec![ObservationMsg {
+                    sensor: None,
+                    ..full_observation()
+                }],
+            })
+            .unwrap(),
+        ),
+        ("estimate", serde_json::to_value(&estimate).unwrap()),
+        ("state", serde_json::to_value(&estimate).unwrap()),
+        (
+            "reset-reply",
+            serde_json::to_value(ResetReplyMsg {
+                vehicle: "sc1".into(),
+                state: "initializing".into(),
+                filter: "mekf".into(),
+                fiducial: None,
+                particles: None,
+                estimate: None,
+            })
+            .unwrap(),
+        ),
+        (
+            "reset-reply",
+            serde_json::to_value(ResetReplyMsg {
+                vehicle: "sc1".into(),
+                state: "tracking".into(),
+                filter: "mekf".into(),
+                fiducial: None,
+                particles: None,
+                estimate: Some(estimate.clone()),
+            })
+            .unwrap(),
+        ),
+    ]);
+    let mut errors = Vec::new();
+    for (schema_name, value) in &minimal {
+        let root = schema(schema_name);
+        let validator = Validator { root: &root };
+        errors.extend(validator.errors(&root, value, schema_name));
+        validator.compare_required(&root, value, schema_name, &mut errors);
+    }
+    fail_on(errors);
+}

@@ -1,0 +1,422 @@
+//! The service over real zenoh on loopback: a service session and a client session in one process.
+
+use attitude_service::attitude::Quaternion;
+use attitude_service::service::config::{parse, ServiceConfig};
+use attitude_service::wire::{
+    AttitudeMsg, ErrorMsg, EstimateMsg, GyroMsg, HealthMsg, ObservationMsg, QuaternionMsg,
+    ResetMsg, ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
+};
+use nalgebra::Vector3;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use zenoh::query::ConsolidationMode;
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn zenoh_config(listen: &[String], connect: &[String]) -> zenoh::Config {
+    let json = serde_json::json!({
+        "mode": "peer",
+        "listen": {"endpoints": listen},
+        "connect": {"endpoints": connect},
+        "scouting": {"multicast": {"enabled": false}},
+    });
+    zenoh::Config::from_json5(&json.to_string()).unwrap()
+}
+
+struct Harness {
+    client: zenoh::Session,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    service: Option<tokio::task::JoinHandle<Result<(), attitude_service::service::ServiceError>>>,
+}
+
+impl Harness {
+    async fn start(service: ServiceConfig) -> Harness {
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let s = zenoh::open(zenoh_config(&[endpoint.clone()], &[]))
+            .await
+            .unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let task = tokio::spawn(attitude_service::service::run(s, service, async {
+            let _ = rx.await;
+        }));
+        let client = zenoh::open(zenoh_config(&[], &[endpoint])).await.unwrap();
+        let h = Harness {
+            client,
+            stop: Some(tx),
+            service: Some(task),
+        };
+        // Declarations propagate asynchronously: poll the health queryable with a deadline.
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+        loop {
+            if h.get::<HealthMsg>("attitude/@/health").await.is_ok() {
+                break;
+            }
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "the service did not come up"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        h
+    }
+
+    async fn replies(
+        &self,
+        key: &str,
+        payload: Option<Vec<u8>>,
+    ) -> Vec<(String, Result<Vec<u8>, Vec<u8>>)> {
+        let mut get = self
+            .client
+            .get(key)
+            .consolidation(ConsolidationMode::None)
+            .timeout(Duration::from_secs(5));
+        if let Some(p) = payload {
+            get = get.payload(p);
+        }
+        let rx = get.await.unwrap();
+        let mut out = Vec::new();
+        while let Ok(reply) = rx.recv_async().await {
+            match reply.result() {
+                Ok(s) => out.push((
+                    s.key_expr().to_string(),
+                    Ok(s.payload().to_bytes().into_owned()),
+                )),
+                Err(e) => out.push((String::new(), Err(e.payload().to_bytes().into_owned()))),
+            }
+        }
+        out
+    }
+
+    /// One reply, parsed; an error reply comes back as its ErrorMsg.
+    async fn get<T: serde::de::DeserializeOwned>(&self, key: &str) -> Result<T, ErrorMsg> {
+        let mut r = self.replies(key, None).await;
+        assert!(r.len() <= 1, "{key}: {} replies", r.len());
+        match r.pop() {
+            Some((_, Ok(p))) => Ok(serde_json::from_slice(&p).unwrap()),
+            Some((_, Err(p))) => Err(serde_json::from_slice(&p).unwrap()),
+            None => Err(ErrorMsg {
+                code: "no_reply".into(),
+                message: String::new(),
+                key: key.into(),
+            }),
+        }
+    }
+
+    async fn put<T: serde::Serialize>(&self, key: &str, msg: &T) {
+        self.client
+            .put(key, serde_json::to_vec(msg).unwrap())
+            .await
+            .unwrap();
+    }
+
+    async fn stop(mut self) {
+        let _ = self.stop.take().unwrap().send(());
+        let r = tokio::time::timeout(Duration::from_secs(10), self.service.take().unwrap())
+            .await
+            .expect("the service stops within 10 s");
+        r.unwrap().unwrap();
+        self.client.close().await.unwrap();
+    }
+}
+
+fn star_set(q_true: &Quaternion, t: f64) -> VectorsMsg {
+    let refs = [
+        Vector3::new(1.0, 0.0, 0.0),
+        Vector3::new(0.0, 0.6, 0.8),
+        Vector3::new(0.0, -0.8, 0.6),
+    ];
+    VectorsMsg {
+        t,
+        obs: refs
+            .iter()
+            .map(|r| {
+                let b = q_true.attitude_matrix() * r;
+                ObservationMsg {
+                    body: [b[0], b[1], b[2]],
+                    reference: [r[0], r[1], r[2]],
+                    sigma: 1e-4,
+                    sensor: Some("st1".into()),
+                }
+            })
+            .collect(),
+    }
+}
+
+fn config(text: &str) -> ServiceConfig {
+    parse(text, "test").unwrap().service
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn measurements_estimates_queries_and_rejections() {
+    let h = Harness::start(config(
+        r#"{ service: { filter: { kind: "qpf", particles: 300 }, vehicles: { "m1": { kind: "mekf" } } } }"#,
+    ))
+    .await;
+    let estimates: Arc<Mutex<Vec<EstimateMsg>>> = Arc::default();
+    let e2 = estimates.clone();
+    let _sub = h
+        .client
+        .declare_subscriber("attitude/*/estimate")
+        .callback(move |s| {
+            if let Ok(e) = serde_json::from_slice::<EstimateMsg>(&s.payload().to_bytes()) {
+                e2.lock().unwrap().push(e);
+            }
+        })
+        .await
+        .unwrap();
+    let rejected: Arc<Mutex<Vec<ErrorMsg>>> = Arc::default();
+    let r2 = rejected.clone();
+    let _rsub = h
+        .client
+        .declare_subscriber("attitude/*/rejected")
+        .callback(move |s| {
+            if let Ok(e) = serde_json::from_slice::<ErrorMsg>(&s.payload().to_bytes()) {
+                r2.lock().unwrap().push(e);
+            }
+        })
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+
+    let omega = Vector3::new(0.0, -0.001, 0.0005);
+    let q0 = Quaternion::new(0.2, -0.1, 0.3, 0.9).normalized().unwrap();
+    for vehicle in ["m1", "p1"] {
+        let mut q = q0;
+        for k in 0..30 {
+            let t = k as f64;
+            h.put(
+                &format!("attitude/{vehicle}/gyro"),
+                &GyroMsg {
+                    t,
+                    omega: [omega[0], omega[1], omega[2]],
+                },
+            )
+            .await;
+            q = q.propagate(&omega, 1.0);
+            h.put(
+                &format!("attitude/{vehicle}/vectors"),
+                &star_set(&q, t + 1.0),
+            )
+            .await;
+        }
+    }
+    // Bad inputs, each with its own code.
+    h.client
+        .put("attitude/m1/gyro", b"{not json".to_vec())
+        .await
+        .unwrap();
+    h.client
+        .put(
+            "attitude/m1/vectors",
+            br#"{"t": 40, "obs": [{"body": [0,0,0], "ref": [1,0,0], "sigma": 1e-4}]}"#.to_vec(),
+        )
+        .await
+        .unwrap();
+    h.client
+        .put(
+            "attitude/bad.id/gyro",
+            br#"{"t": 1, "omega": [0,0,0]}"#.to_vec(),
+        )
+        .await
+        .unwrap();
+
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        let (n_est, n_rej) = (
+            estimates.lock().unwrap().len(),
+            rejected.lock().unwrap().len(),
+        );
+        if n_est >= 60 && n_rej >= 3 {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{n_est} estimates, {n_rej} rejections"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let codes: Vec<String> = rejected
+        .lock()
+        .unwrap()
+        .iter()
+        .map(|r| r.code.clone())
+        .collect();
+    for c in ["invalid_json", "zero_vector", "invalid_vehicle_id"] {
+        assert!(codes.contains(&c.to_string()), "{c} missing from {codes:?}");
+    }
+    // Estimates: in order per vehicle, right filter, close to the truth.
+    let truth = (0..30).fold(q0, |q, _| q.propagate(&omega, 1.0));
+    for (vehicle, filter) in [("m1", "mekf"), ("p1", "qpf")] {
+        let est: Vec<EstimateMsg> = estimates
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|e| e.vehicle == vehicle)
+            .cloned()
+            .collect();
+        assert_eq!(est.len(), 30, "{vehicle}");
+        assert!(
+            est.windows(2)
+                .all(|w| w[1].seq == w[0].seq + 1 && w[1].t > w[0].t),
+            "{vehicle}: ordered"
+        );
+        let last = est.last().unwrap();
+        assert_eq!(last.filter, filter);
+        assert_eq!(last.t, 30.0);
+        let q = last.q.to_domain().unwrap();
+        let err = truth.small_angle_error(&q);
+        for i in 0..3 {
+            assert!(
+                err[i].abs().to_degrees() <= 3.0 * last.sigma_deg[i],
+                "{vehicle} axis {i}: {err} vs {:?}",
+                last.sigma_deg
+            );
+        }
+    }
+    // Queries: one vehicle, wildcard, unknown.
+    let a: AttitudeMsg = h.get("attitude/m1/attitude").await.unwrap();
+    assert_eq!((a.vehicle.as_str(), a.t), ("m1", 30.0));
+    let all = h.replies("attitude/*/attitude", None).await;
+    let mut keys: Vec<String> = all.iter().map(|(k, _)| k.clone()).collect();
+    keys.sort();
+    assert_eq!(keys, ["attitude/m1/attitude", "attitude/p1/attitude"]);
+    let unknown = h
+        .get::<AttitudeMsg>("attitude/nobody/attitude")
+        .await
+        .unwrap_err();
+    assert_eq!(unknown.code, "unknown_vehicle");
+    let cov = h.replies("attitude/p1/covariance", None).await;
+    assert_eq!(cov.len(), 1);
+    let vehicles: Vec<VehicleInfoMsg> = h.get("attitude/@/vehicles").await.unwrap();
+    assert_eq!(
+        vehicles
+            .iter()
+            .map(|v| v.vehicle.as_str())
+            .collect::<Vec<_>>(),
+        ["m1", "p1"]
+    );
+    assert!(vehicles
+        .iter()
+        .all(|v| v.state == "tracking" && v.processed == 60));
+    let health: HealthMsg = h.get("attitude/@/health").await.unwrap();
+    assert_eq!(health.vehicles, 2);
+    assert_eq!(health.estimates_published, 60);
+    assert!(health.received >= 123, "{health:?}");
+    for c in [
+        "invalid_json",
+        "zero_vector",
+        "invalid_vehicle_id",
+        "unknown_vehicle",
+    ] {
+        assert!(
+            health.rejected.get(c).copied().unwrap_or(0) >= 1,
+            "{c}: {health:?}"
+        );
+    }
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn reset_gives_an_attitude_and_refuses_bad_parameters() {
+    let h = Harness::start(ServiceConfig::default()).await;
+    let q = QuaternionMsg {
+        w: 0.9,
+        x: 0.3,
+        y: -0.2,
+        z: 0.1,
+    };
+    let n = (q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z).sqrt();
+    let q = QuaternionMsg {
+        w: q.w / n,
+        x: q.x / n,
+        y: q.y / n,
+        z: q.z / n,
+    };
+    let req = ResetMsg {
+        filter: Some("mekf".into()),
+        q: Some(q),
+        t: Some(100.0),
+        ..Default::default()
+    };
+    let r = h
+        .replies("attitude/r1/reset", Some(serde_json::to_vec(&req).unwrap()))
+        .await;
+    let reply: ResetReplyMsg = serde_json::from_slice(r[0].1.as_ref().unwrap()).unwrap();
+    assert_eq!(
+        (reply.state.as_str(), reply.filter.as_str()),
+        ("tracking", "mekf")
+    );
+    let a: AttitudeMsg = h.get("attitude/r1/attitude").await.unwrap();
+    assert_eq!(a.t, 100.0);
+    assert!((a.q.w - q.w).abs() < 1e-12 && (a.q.x - q.x).abs() < 1e-12);
+    assert!(
+        (a.sigma_deg[0] - 1.0).abs() < 1e-9,
+        "default reset sigma 1°"
+    );
+    for bad in [
+        r#"{"filter": "ekf"}"#,
+        r#"{"sigma_deg": -1, "q": {"w": 1, "x": 0, "y": 0, "z": 0}}"#,
+        r#"{"q": {"w": 2, "x": 0, "y": 0, "z": 0}}"#,
+        r#"{"unknown": 1}"#,
+        "not json",
+    ] {
+        let r = h
+            .replies("attitude/r1/reset", Some(bad.as_bytes().to_vec()))
+            .await;
+        let err: ErrorMsg = serde_json::from_slice(r[0].1.as_ref().unwrap_err()).unwrap();
+        assert!(
+            !err.code.is_empty() && err.message.len() > 5,
+            "{bad}: {err:?}"
+        );
+    }
+    let after: AttitudeMsg = h.get("attitude/r1/attitude").await.unwrap();
+    assert_eq!(after, a, "refused resets change nothing");
+    // A reset without q re-initialises from the next vector set.
+    let r = h
+        .replies(
+            "attitude/r1/reset",
+            Some(br#"{"filter": "qpf", "particles": 200}"#.to_vec()),
+        )
+        .await;
+    let reply: ResetReplyMsg = serde_json::from_slice(r[0].1.as_ref().unwrap()).unwrap();
+    assert_eq!(
+        (reply.state.as_str(), reply.particles),
+        ("initializing", Some(200))
+    );
+    assert_eq!(
+        h.get::<AttitudeMsg>("attitude/r1/attitude")
+            .await
+            .unwrap_err()
+            .code,
+        "not_initialized"
+    );
+    h.stop().await;
+}
+
+#[test]
+fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
+    let file = attitude_service::service::config::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/config/default.json5"
+    )))
+    .unwrap();
+    assert_eq!(file.service, ServiceConfig::default());
+    zenoh::Config::from_json5(&file.zenoh_json).unwrap();
+    assert!(file.zenoh_json.contains("tcp/127.0.0.1:7447"));
+    for bad in [
+        r#"{ service: { key_prefix: "a/*/b" } }"#,
+        r#"{ service: { filter: { kind: "ekf" } } }"#,
+        r#"{ service: { filter: { init: "uniform", kind: "mekf" } } }"#,
+        r#"{ service: { limits: { max_vehicles: 0 } } }"#,
+        r#"{ service: { unknown_option: 1 } }"#,
+        r#"{ service: { vehicles: { "bad id": {} } } }"#,
+    ] {
+        assert!(parse(bad, "test").is_err(), "{bad} accepted");
+    }
+}
