@@ -15,6 +15,7 @@
 pub mod attitude;
 pub mod bounds;
 pub mod filters;
+pub mod rng;
 pub mod sensors;
 pub mod service;
 pub mod sim;

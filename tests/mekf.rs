@@ -216,3 +216,29 @@ fn filter_spec_names() {
         assert!(bad.parse::<FilterSpec>().is_err(), "{bad}");
     }
 }
+
+#[test]
+fn times_within_a_nanosecond_are_the_same_instant() {
+    let mut f = mekf(Quaternion::IDENTITY);
+    let t = 0.1 + 0.2; // 0.30000000000000004
+    f.process(&Measurement::Gyro(GyroSample {
+        t_s: t,
+        omega_body_rad_s: Vector3::zeros(),
+    }))
+    .unwrap();
+    // A sender that computes the same instant as 3 × 0.1 must not be refused.
+    let same = Measurement::Gyro(GyroSample {
+        t_s: 0.3,
+        omega_body_rad_s: Vector3::zeros(),
+    });
+    assert!(0.3 < t);
+    f.process(&same).unwrap();
+    let earlier = Measurement::Gyro(GyroSample {
+        t_s: t - 1e-6,
+        omega_body_rad_s: Vector3::zeros(),
+    });
+    assert!(matches!(
+        f.process(&earlier),
+        Err(FilterError::OutOfOrder { .. })
+    ));
+}

@@ -149,3 +149,13 @@ proptest! {
         let _ = weighted_average(&qs, &ws, None);
     }
 }
+
+proptest! {
+    #[test]
+    fn half_angle_series_matches_the_trigonometric_form(theta in 0.0f64..0.06) {
+        let (s, c) = attitude_service::attitude::quaternion::half_angle_terms(theta * theta);
+        let exact_s = if theta == 0.0 { 0.5 } else { (theta / 2.0).sin() / theta };
+        prop_assert!((s - exact_s).abs() <= 2.0 * f64::EPSILON * 0.5, "{s} vs {exact_s}");
+        prop_assert!((c - (theta / 2.0).cos()).abs() <= 2.0 * f64::EPSILON);
+    }
+}

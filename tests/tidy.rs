@@ -8,6 +8,7 @@ const CORE: &[&str] = &[
     "src/filters",
     "src/sim",
     "src/bounds.rs",
+    "src/rng.rs",
 ];
 const FORBIDDEN: &[&str] = &[
     "tokio",

@@ -100,6 +100,46 @@ impl AverageAccumulator {
         self.add(&Quaternion::new(x, y, z, w_scalar), weight);
     }
 
+    /// Adds particles held as separate component slices (same length), in one tight loop over the
+    /// ten distinct entries of `M`. The weights must be finite and non-negative (a particle filter's
+    /// normalised weights); a non-finite input is still caught, when the average is decided.
+    pub fn add_slices(&mut self, x: &[f64], y: &[f64], z: &[f64], w: &[f64], weights: &[f64]) {
+        let n = x
+            .len()
+            .min(y.len())
+            .min(z.len())
+            .min(w.len())
+            .min(weights.len());
+        let (mut xx, mut xy, mut xz, mut xw, mut yy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let (mut yz, mut yw, mut zz, mut zw, mut ww, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let k = weights[i];
+            let (a, b, c, d) = (x[i] * k, y[i] * k, z[i] * k, w[i] * k);
+            xx += a * x[i];
+            xy += a * y[i];
+            xz += a * z[i];
+            xw += a * w[i];
+            yy += b * y[i];
+            yz += b * z[i];
+            yw += b * w[i];
+            zz += c * z[i];
+            zw += c * w[i];
+            ww += d * w[i];
+            total += k;
+        }
+        let m = Matrix4::new(
+            xx, xy, xz, xw, xy, yy, yz, yw, xz, yz, zz, zw, xw, yw, zw, ww,
+        );
+        if !(m.iter().all(|v| v.is_finite()) && total.is_finite() && total >= 0.0) {
+            if self.error.is_none() {
+                self.error = Some(AverageError::NonFiniteQuaternion { index: self.count });
+            }
+        }
+        self.m += m;
+        self.total_weight += total;
+        self.count += n;
+    }
+
     /// The accumulated `M`.
     pub fn matrix(&self) -> &Matrix4<f64> {
         &self.m

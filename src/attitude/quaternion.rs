@@ -2,9 +2,29 @@
 
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
-/// Below this angle (rad) the trigonometric ratios of a rotation switch to their Taylor series, so that
-/// zero rates and zero errors never divide by zero.
-const SMALL_ANGLE_RAD: f64 = 1e-4;
+/// Below this angle (rad) a rotation's half-angle terms come from their Taylor series: exact to
+/// rounding (the first omitted terms are below 1e-17) and no trigonometric calls in the particle
+/// filter's per-particle propagation, where every step's rotation is tiny.
+const SERIES_ANGLE_RAD: f64 = 0.05;
+
+/// `(sin(θ/2)/θ, cos(θ/2))` from `θ²`; safe at zero.
+#[inline]
+pub fn half_angle_terms(theta_sq: f64) -> (f64, f64) {
+    if theta_sq < SERIES_ANGLE_RAD * SERIES_ANGLE_RAD {
+        // Horner forms of sin(h)/(2h) and cos(h), h = θ/2, with reciprocals (no divisions).
+        let h2 = 0.25 * theta_sq;
+        let s =
+            0.5 * (1.0 - h2 * (1.0 / 6.0) * (1.0 - h2 * (1.0 / 20.0) * (1.0 - h2 * (1.0 / 42.0))));
+        let c = 1.0
+            - h2 * 0.5
+                * (1.0 - h2 * (1.0 / 12.0) * (1.0 - h2 * (1.0 / 30.0) * (1.0 - h2 * (1.0 / 56.0))));
+        (s, c)
+    } else {
+        let angle = theta_sq.sqrt();
+        let half = 0.5 * angle;
+        (half.sin() / angle, half.cos())
+    }
+}
 
 /// A unit attitude quaternion `q = [ϱ; q4]` (vector part `(x, y, z)`, scalar `w`).
 ///
@@ -125,15 +145,8 @@ impl Quaternion {
     /// The unit quaternion of a rotation vector `θ` (rad) in this convention: `[sin(θ/2) θ̂; cos(θ/2)]`.
     /// Exact for any angle and safe at zero. `δq(δα) ⊗ q̂` applies a body-frame error `δα` to `q̂`.
     pub fn from_rotation_vector(theta: &Vector3<f64>) -> Quaternion {
-        let angle = theta.norm();
-        let half = 0.5 * angle;
-        // sin(θ/2)/θ, by its series near zero.
-        let s = if angle < SMALL_ANGLE_RAD {
-            0.5 - angle * angle / 48.0
-        } else {
-            half.sin() / angle
-        };
-        Quaternion::new(theta[0] * s, theta[1] * s, theta[2] * s, half.cos())
+        let (s, c) = half_angle_terms(theta.norm_squared());
+        Quaternion::new(theta[0] * s, theta[1] * s, theta[2] * s, c)
     }
 
     /// The rotation vector (rad, angle in `[0, π]`) of this unit quaternion; the inverse of

@@ -238,6 +238,9 @@ pub trait AttitudeFilter: Send {
     fn estimate(&self) -> Estimate;
 }
 
+/// Measurement times closer than this (s) are the same instant.
+pub const SAME_INSTANT_S: f64 = 1e-9;
+
 /// Holds the time and the last gyro rate, and drives a [`FilterCore`].
 pub struct Driver<F: FilterCore> {
     core: F,
@@ -265,7 +268,9 @@ impl<F: FilterCore> Driver<F> {
             self.t_s = Some(t_s);
             return Ok(());
         };
-        if t_s < now {
+        // Times within a nanosecond are the same instant: senders compute stamps in different ways
+        // (t + dt vs k·dt) and must not see rounding refused as out of order.
+        if t_s < now - SAME_INSTANT_S {
             return Err(FilterError::OutOfOrder {
                 t_s,
                 filter_t_s: now,

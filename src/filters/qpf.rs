@@ -31,7 +31,9 @@ use super::{
     Diagnostics, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind, FilterSpec,
     InitialState,
 };
+use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
+use crate::rng::{standard_normal, ziggurat};
 use crate::sensors::gyro::normal3;
 use crate::sensors::{GyroNoise, VectorObservation};
 use nalgebra::{Matrix6, Vector3, Vector6};
@@ -168,31 +170,6 @@ impl Cloud {
         self.w.copy_from_slice(&other.w);
     }
 
-    /// The local state `[MRP(qᵢ ⊗ q_fid⁻¹); βᵢ]`.
-    fn local(&self, i: usize, fid_inv: &Quaternion) -> Vector6<f64> {
-        let p = Grp::MRP.from_quaternion(&self.q(i).compose(fid_inv));
-        Vector6::new(p[0], p[1], p[2], self.bx[i], self.by[i], self.bz[i])
-    }
-
-    /// Weighted mean and covariance of the local states about `fid` (two passes: numerically safe).
-    fn moments(&self, fid: &Quaternion) -> (Vector6<f64>, Matrix6<f64>) {
-        let fid_inv = fid.inverse();
-        let mut mean = Vector6::zeros();
-        for i in 0..self.len() {
-            if self.w[i] > 0.0 {
-                mean += self.local(i, &fid_inv) * self.w[i];
-            }
-        }
-        let mut cov = Matrix6::zeros();
-        for i in 0..self.len() {
-            if self.w[i] > 0.0 {
-                let d = self.local(i, &fid_inv) - mean;
-                cov += d * d.transpose() * self.w[i];
-            }
-        }
-        (mean, (cov + cov.transpose()) * 0.5)
-    }
-
     fn ess(&self) -> f64 {
         1.0 / self.w.iter().map(|w| w * w).sum::<f64>()
     }
@@ -202,11 +179,51 @@ impl Cloud {
         previous: &Quaternion,
     ) -> Result<crate::attitude::QuaternionAverage, crate::attitude::AverageError> {
         let mut acc = AverageAccumulator::new();
-        for i in 0..self.len() {
-            acc.add_components(self.qx[i], self.qy[i], self.qz[i], self.qw[i], self.w[i]);
-        }
+        acc.add_slices(&self.qx, &self.qy, &self.qz, &self.qw, &self.w);
         acc.finish(Some(previous))
     }
+}
+
+/// `p ⊗ q` on components (Shuster product, see `Quaternion::compose`).
+#[inline(always)]
+fn compose(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
+    let [px, py, pz, pw] = p;
+    let [qx, qy, qz, qw] = q;
+    [
+        pw * qx + qw * px - (py * qz - pz * qy),
+        pw * qy + qw * py - (pz * qx - px * qz),
+        pw * qz + qw * pz - (px * qy - py * qx),
+        pw * qw - (px * qx + py * qy + pz * qz),
+    ]
+}
+
+/// The MRP of `q ⊗ fid⁻¹` on components (shortest rotation: no shadow set).
+#[inline(always)]
+fn mrp_about(q: [f64; 4], fid_inv: [f64; 4]) -> [f64; 3] {
+    let d = compose(q, fid_inv);
+    let k = if d[3] < 0.0 { -1.0 } else { 1.0 };
+    let f = k / (1.0 + k * d[3]);
+    [d[0] * f, d[1] * f, d[2] * f]
+}
+
+/// `MRP⁻¹(p) ⊗ fid` on components: `δq = [2p; 1 − ‖p‖²]/(1 + ‖p‖²)`, unit by construction.
+#[inline(always)]
+fn from_mrp(p: [f64; 3], fid: [f64; 4]) -> [f64; 4] {
+    let n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    let f = 1.0 / (1.0 + n2);
+    compose(
+        [
+            2.0 * p[0] * f,
+            2.0 * p[1] * f,
+            2.0 * p[2] * f,
+            (1.0 - n2) * f,
+        ],
+        fid,
+    )
+}
+
+fn components(q: &Quaternion) -> [f64; 4] {
+    [q.x, q.y, q.z, q.w]
 }
 
 /// The quaternion particle filter.
@@ -220,7 +237,12 @@ pub struct Qpf {
     scratch: Cloud,
     backup: Cloud,
     log_lik: Vec<f64>,
+    /// Per-observation constants of the current update (reused buffer).
+    obs_terms: Vec<[f64; 7]>,
     resample_index: Vec<usize>,
+    /// Local states `[δp; β − β_ref]` of every particle about the fiducial of the last
+    /// `locals_and_moments` (reused by the regularisation that may follow).
+    local: [Vec<f64>; 6],
     /// The previous estimate propagated with `ω̃ − β̂` (seed Eq. 1): the `propagated` fiducial, the sign
     /// reference of the average, and the fallback when the average is undecidable.
     q_prop: Quaternion,
@@ -312,7 +334,9 @@ impl Qpf {
             backup: cloud.clone(),
             cloud,
             log_lik: vec![0.0; n],
+            obs_terms: Vec::with_capacity(16),
             resample_index: vec![0; n],
+            local: std::array::from_fn(|_| vec![0.0; n]),
             q_prop: q0,
             q_hat: q0,
             beta_hat: initial.bias_rad_s,
@@ -378,8 +402,8 @@ impl Qpf {
         (self.cloud.q(i), self.cloud.beta(i), self.cloud.w[i])
     }
 
-    /// The fiducial for the current weights: the weighted average (sign-continuous with the
-    /// propagated estimate) or, for `propagated`, `reference` itself. Returns whether it fell back.
+    /// The weighted average of the cloud (sign-continuous with `reference`), or `reference` itself
+    /// when the average is undecidable. Returns whether it fell back, and the concentration and gap.
     fn average_or(&self, reference: &Quaternion) -> (Quaternion, bool, Option<(f64, f64)>) {
         match self.cloud.average(reference) {
             Ok(avg) => (avg.q, false, Some((avg.concentration, avg.gap))),
@@ -387,7 +411,8 @@ impl Qpf {
         }
     }
 
-    /// Moves the chart centre onto the current weights (the key to large initial errors).
+    /// Moves the chart centre onto the current weights (the key to large initial errors): the
+    /// weighted average for `average`, `MRP⁻¹(Σ wᵢ δpᵢ) ⊗ fid` for `propagated`.
     fn recenter(&mut self, fid: &Quaternion) -> Quaternion {
         match self.fiducial {
             Fiducial::Average => {
@@ -402,75 +427,192 @@ impl Qpf {
                 q
             }
             Fiducial::Propagated => {
-                let (mean, _) = self.cloud.moments(fid);
-                let dp = Vector3::new(mean[0], mean[1], mean[2]);
-                Grp::MRP.to_quaternion(&dp).compose(fid)
+                let (mean, _) = self.locals_and_moments(fid);
+                Grp::MRP
+                    .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
+                    .compose(fid)
             }
         }
+    }
+
+    /// Computes every particle's local state about `fid` into `self.local` and returns the weighted
+    /// mean and covariance of `[δp; β]`, in one pass. The bias is taken relative to the current bias
+    /// estimate so that the second moment does not cancel catastrophically.
+    fn locals_and_moments(&mut self, fid: &Quaternion) -> (Vector6<f64>, Matrix6<f64>) {
+        let fid_inv = components(&fid.inverse());
+        let b_ref = self.beta_hat;
+        let c = &self.cloud;
+        let [l0, l1, l2, l3, l4, l5] = &mut self.local;
+        let mut sum = [0.0f64; 6];
+        let mut sq = [0.0f64; 21];
+        let n = c.len();
+        let (l0, l1, l2, l3, l4, l5) = (
+            &mut l0[..n],
+            &mut l1[..n],
+            &mut l2[..n],
+            &mut l3[..n],
+            &mut l4[..n],
+            &mut l5[..n],
+        );
+        let (qx, qy, qz, qw, bx, by, bz, wt) = (
+            &c.qx[..n],
+            &c.qy[..n],
+            &c.qz[..n],
+            &c.qw[..n],
+            &c.bx[..n],
+            &c.by[..n],
+            &c.bz[..n],
+            &c.w[..n],
+        );
+        for i in 0..n {
+            let p = mrp_about([qx[i], qy[i], qz[i], qw[i]], fid_inv);
+            let x = [
+                p[0],
+                p[1],
+                p[2],
+                bx[i] - b_ref[0],
+                by[i] - b_ref[1],
+                bz[i] - b_ref[2],
+            ];
+            l0[i] = x[0];
+            l1[i] = x[1];
+            l2[i] = x[2];
+            l3[i] = x[3];
+            l4[i] = x[4];
+            l5[i] = x[5];
+            let w = wt[i];
+            let wx = [w * x[0], w * x[1], w * x[2], w * x[3], w * x[4], w * x[5]];
+            for r in 0..6 {
+                sum[r] += wx[r];
+            }
+            // The 21 distinct products of the upper triangle, row by row.
+            let mut k = 0;
+            for r in 0..6 {
+                for col in r..6 {
+                    sq[k] += wx[r] * x[col];
+                    k += 1;
+                }
+            }
+        }
+        let mut mean = Vector6::from_column_slice(&sum);
+        let mut cov = Matrix6::zeros();
+        let mut k = 0;
+        for r in 0..6 {
+            for col in r..6 {
+                let v = sq[k] - sum[r] * sum[col];
+                cov[(r, col)] = v;
+                cov[(col, r)] = v;
+                k += 1;
+            }
+        }
+        for r in 3..6 {
+            mean[r] += b_ref[r - 3];
+        }
+        (mean, cov)
     }
 
     fn log_likelihoods(&mut self, observations: &[VectorObservation]) {
-        for i in 0..self.cloud.len() {
-            let a = self.cloud.q(i).attitude_matrix();
+        // Per observation: reference, measurement and −½σ⁻², computed once (the buffer is reused).
+        self.obs_terms.clear();
+        self.obs_terms.extend(observations.iter().map(|o| {
+            let (r, b) = (&o.reference, &o.body);
+            [
+                r[0],
+                r[1],
+                r[2],
+                b[0],
+                b[1],
+                b[2],
+                -0.5 / (o.sigma * o.sigma),
+            ]
+        }));
+        let terms = &self.obs_terms[..];
+        let c = &self.cloud;
+        let particles =
+            c.qx.iter()
+                .zip(&c.qy)
+                .zip(&c.qz)
+                .zip(&c.qw)
+                .zip(self.log_lik.iter_mut());
+        for ((((&x, &y), &z), &w), out) in particles {
+            // A(q) = (w² − ϱᵀϱ) I + 2 ϱϱᵀ − 2 w [ϱ×], written out.
+            let (xx, yy, zz, ww) = (x * x, y * y, z * z, w * w);
+            let (xy, xz, yz, xw, yw, zw) = (x * y, x * z, y * z, x * w, y * w, z * w);
+            let a = [
+                ww + xx - yy - zz,
+                2.0 * (xy + zw),
+                2.0 * (xz - yw),
+                2.0 * (xy - zw),
+                ww - xx + yy - zz,
+                2.0 * (yz + xw),
+                2.0 * (xz + yw),
+                2.0 * (yz - xw),
+                ww - xx - yy + zz,
+            ];
             let mut ll = 0.0;
-            for o in observations {
-                let r = o.body - a * o.reference;
-                ll -= 0.5 * r.norm_squared() / (o.sigma * o.sigma);
+            for t in terms {
+                let d0 = t[3] - (a[0] * t[0] + a[1] * t[1] + a[2] * t[2]);
+                let d1 = t[4] - (a[3] * t[0] + a[4] * t[1] + a[5] * t[2]);
+                let d2 = t[5] - (a[6] * t[0] + a[7] * t[1] + a[8] * t[2]);
+                ll += t[6] * (d0 * d0 + d1 * d1 + d2 * d2);
             }
-            self.log_lik[i] = ll;
+            *out = ll;
         }
     }
 
-    /// Multiplies the weights by `L^λ` and renormalises; false when every weight vanished.
+    /// Multiplies the weights by `L^λ` and renormalises; false when every weight vanished. The
+    /// factor `exp(λ (log Lᵢ − max log L))` is at most 1 and is 1 for a live particle, so no logarithm
+    /// of the weights is needed and the sum cannot vanish.
     fn apply_likelihood(&mut self, lambda: f64) -> bool {
         let mut max = f64::NEG_INFINITY;
-        for i in 0..self.cloud.len() {
-            if self.cloud.w[i] > 0.0 {
-                max = max.max(self.cloud.w[i].ln() + lambda * self.log_lik[i]);
+        for (ll, w) in self.log_lik.iter().zip(&self.cloud.w) {
+            if *w > 0.0 && *ll > max {
+                max = *ll;
             }
         }
         if !max.is_finite() {
             return false;
         }
         let mut sum = 0.0;
-        for i in 0..self.cloud.len() {
-            let w = self.cloud.w[i];
-            let nw = if w > 0.0 {
-                (w.ln() + lambda * self.log_lik[i] - max).exp()
-            } else {
-                0.0
-            };
-            self.cloud.w[i] = nw;
-            sum += nw;
+        for (ll, w) in self.log_lik.iter().zip(self.cloud.w.iter_mut()) {
+            *w *= (lambda * (ll - max)).exp();
+            sum += *w;
         }
         if !(sum > 0.0 && sum.is_finite()) {
             return false;
         }
+        let inv = 1.0 / sum;
         for w in &mut self.cloud.w {
-            *w /= sum;
+            *w *= inv;
         }
         true
     }
 
-    /// Systematic resampling, then the shrinkage kernel in the local space about `fid`:
+    /// Systematic resampling, then the shrinkage kernel in the local space about `fid` (whose local
+    /// states, mean and covariance `locals_and_moments` just computed):
     /// `xᵢ ← x̄ + s [a (x_idx(i) − x̄) + h D εᵢ]`, `a = √(1 − h_eff²)`, `D Dᵀ = S`, `s = √(1 + inflation)`,
     /// which keeps the cloud's mean and (up to the inflation) its covariance.
-    fn resample_and_regularize(&mut self, fid: &Quaternion) {
+    fn resample_and_regularize(
+        &mut self,
+        fid: &Quaternion,
+        mean: &Vector6<f64>,
+        cov: &Matrix6<f64>,
+    ) {
         let n = self.cloud.len();
-        let (mean, cov) = self.cloud.moments(fid);
         // Systematic resampling: one uniform offset, O(N).
-        let u0: f64 = self.rng.random::<f64>() / n as f64;
+        let step = 1.0 / n as f64;
+        let mut u = self.rng.random::<f64>() * step;
         let mut cum = self.cloud.w[0];
         let mut j = 0;
         for i in 0..n {
-            let u = u0 + i as f64 / n as f64;
             while u > cum && j < n - 1 {
                 j += 1;
                 cum += self.cloud.w[j];
             }
             self.resample_index[i] = j;
+            u += step;
         }
-        let d = regularization_factor(&cov);
+        let d = regularization_factor(cov);
         let h = self.options.kernel.optimal_bandwidth(n) * self.options.bandwidth_scale;
         let h_eff = (h * h * self.options.kernel.unit_variance())
             .sqrt()
@@ -478,28 +620,50 @@ impl Qpf {
         let a = (1.0 - h_eff * h_eff).sqrt();
         let h_draw = h_eff / self.options.kernel.unit_variance().sqrt();
         let s = (1.0 + self.options.inflation).sqrt();
-        let fid_inv = fid.inverse();
+        let fid = components(fid);
+        let b_ref = self.beta_hat;
+        // Local states are relative to b_ref in the bias part; so is the mean here.
+        let m = [
+            mean[0],
+            mean[1],
+            mean[2],
+            mean[3] - b_ref[0],
+            mean[4] - b_ref[1],
+            mean[5] - b_ref[2],
+        ];
         let beta = Beta::new(STATE_DIM / 2.0, 2.0).ok();
         for i in 0..n {
-            let x = self.cloud.local(self.resample_index[i], &fid_inv);
+            let j = self.resample_index[i];
             let eps = match (self.options.kernel, &beta) {
                 (Kernel::Epanechnikov, Some(b)) => epanechnikov_draw(&mut self.rng, b),
-                _ => Vector6::from_fn(|_, _| self.rng.sample(StandardNormal)),
+                _ => Vector6::from_fn(|_, _| standard_normal(&mut self.rng)),
             };
-            let xn = mean + ((x - mean) * a + d * eps * h_draw) * s;
-            let q = Grp::MRP
-                .to_quaternion(&Vector3::new(xn[0], xn[1], xn[2]))
-                .compose(fid);
-            self.scratch.set(i, &q, &Vector3::new(xn[3], xn[4], xn[5]));
+            let de = d * eps;
+            let mut xn = [0.0; 6];
+            for (r, out) in xn.iter_mut().enumerate() {
+                *out = m[r] + s * (a * (self.local[r][j] - m[r]) + h_draw * de[r]);
+            }
+            let q = from_mrp([xn[0], xn[1], xn[2]], fid);
+            let sc = &mut self.scratch;
+            sc.qx[i] = q[0];
+            sc.qy[i] = q[1];
+            sc.qz[i] = q[2];
+            sc.qw[i] = q[3];
+            sc.bx[i] = xn[3] + b_ref[0];
+            sc.by[i] = xn[4] + b_ref[1];
+            sc.bz[i] = xn[5] + b_ref[2];
         }
         std::mem::swap(&mut self.cloud, &mut self.scratch);
-        self.cloud.w.fill(1.0 / n as f64);
+        self.cloud.w.fill(step);
         *self.diagnostics.resamples.get_or_insert(0) += 1;
     }
 
-    /// The estimate from the cloud about the re-centred fiducial `fid`.
-    fn estimate_about(&self, fid: &Quaternion) -> (Quaternion, Vector3<f64>, Matrix6<f64>) {
-        let (mean, cov) = self.cloud.moments(fid);
+    /// The estimate about the re-centred fiducial from the moments of the local states.
+    fn estimate_from(
+        fid: &Quaternion,
+        mean: &Vector6<f64>,
+        cov: &Matrix6<f64>,
+    ) -> (Quaternion, Vector3<f64>, Matrix6<f64>) {
         let q = Grp::MRP
             .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
             .compose(fid);
@@ -511,11 +675,10 @@ impl Qpf {
     }
 
     fn try_update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError> {
-        // 1. The fiducial of the propagated cloud.
-        let mut fid = match self.fiducial {
-            Fiducial::Average => self.recenter(&self.q_prop.clone()),
-            Fiducial::Propagated => self.q_prop,
-        };
+        // 1. The propagated estimate is the chart centre of `propagated`, and for `average` the sign
+        //    reference and the fallback; the average itself is taken after the weights change (a
+        //    prior-weight average would be replaced at once by the re-centring below).
+        let mut fid = self.q_prop;
         // 2–3. Progressive correction with re-centring after every weight change.
         self.log_likelihoods(observations);
         let mut remaining = 1.0;
@@ -543,11 +706,13 @@ impl Qpf {
             if remaining <= 1e-12 {
                 break;
             }
-            self.resample_and_regularize(&fid);
+            let (mean, cov) = self.locals_and_moments(&fid);
+            self.resample_and_regularize(&fid, &mean, &cov);
             self.log_likelihoods(observations);
         }
         // 4. The estimate before the final resampling.
-        let (q_hat, beta_hat, p_hat) = self.estimate_about(&fid);
+        let (mean, cov) = self.locals_and_moments(&fid);
+        let (q_hat, beta_hat, p_hat) = Self::estimate_from(&fid, &mean, &cov);
         let ess = self.cloud.ess();
         if !(q_hat.is_finite()
             && beta_hat.iter().all(|b| b.is_finite())
@@ -559,7 +724,7 @@ impl Qpf {
         }
         // 5. Resample when the effective sample size drops.
         if ess < self.options.resample_fraction * self.cloud.len() as f64 {
-            self.resample_and_regularize(&fid);
+            self.resample_and_regularize(&fid, &mean, &cov);
         }
         self.q_hat = q_hat.canonical();
         self.q_prop = q_hat;
@@ -609,12 +774,38 @@ impl FilterCore for Qpf {
     fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
         let su = self.gyro.sigma_u * dt_s.sqrt();
         let sw = self.gyro.discrete_rate_sigma(dt_s);
-        for i in 0..self.cloud.len() {
-            let b0 = self.cloud.beta(i);
-            let b1 = b0 + normal3(&mut self.rng) * su;
-            let w = omega_meas_rad_s - (b0 + b1) * 0.5 - normal3(&mut self.rng) * sw;
-            let q = self.cloud.q(i).propagate(&w, dt_s);
-            self.cloud.set(i, &q, &b1);
+        let w_meas = [
+            omega_meas_rad_s[0],
+            omega_meas_rad_s[1],
+            omega_meas_rad_s[2],
+        ];
+        let c = &mut self.cloud;
+        let rng = &mut self.rng;
+        let z = ziggurat();
+        let particles =
+            c.qx.iter_mut()
+                .zip(c.qy.iter_mut())
+                .zip(c.qz.iter_mut())
+                .zip(c.qw.iter_mut())
+                .zip(c.bx.iter_mut())
+                .zip(c.by.iter_mut())
+                .zip(c.bz.iter_mut());
+        for ((((((qx, qy), qz), qw), bx), by), bz) in particles {
+            let b0 = [*bx, *by, *bz];
+            let mut b1 = [0.0; 3];
+            let mut th = [0.0; 3];
+            for k in 0..3 {
+                let (nu, nv) = z.sample_pair(rng);
+                b1[k] = b0[k] + su * nu;
+                th[k] = (w_meas[k] - 0.5 * (b0[k] + b1[k]) - sw * nv) * dt_s;
+            }
+            let (sf, cf) = half_angle_terms(th[0] * th[0] + th[1] * th[1] + th[2] * th[2]);
+            let q = compose(
+                [th[0] * sf, th[1] * sf, th[2] * sf, cf],
+                [*qx, *qy, *qz, *qw],
+            );
+            (*qx, *qy, *qz, *qw) = (q[0], q[1], q[2], q[3]);
+            (*bx, *by, *bz) = (b1[0], b1[1], b1[2]);
         }
         self.q_prop = self
             .q_prop
@@ -639,16 +830,15 @@ impl FilterCore for Qpf {
 
     fn estimate(&self) -> Estimate {
         let (q, bias, cov) = if self.stale {
-            let fid = match self.fiducial {
-                Fiducial::Average => self.average_or(&self.q_prop).0,
-                Fiducial::Propagated => {
-                    let (mean, _) = self.cloud.moments(&self.q_prop);
-                    Grp::MRP
-                        .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
-                        .compose(&self.q_prop)
-                }
+            // Between updates: the cloud's moments about its re-centred fiducial (on a copy: this
+            // method does not change the filter).
+            let mut f = self.clone();
+            let fid = match f.fiducial {
+                Fiducial::Average => f.average_or(&f.q_prop).0,
+                Fiducial::Propagated => f.recenter(&f.q_prop.clone()),
             };
-            self.estimate_about(&fid)
+            let (mean, cov) = f.locals_and_moments(&fid);
+            Self::estimate_from(&fid, &mean, &cov)
         } else {
             (self.q_hat, self.beta_hat, self.p_hat)
         };

@@ -20,9 +20,10 @@ import sys
 import threading
 import time
 
+import numpy as np
 import zenoh
 
-from sim import Scenario
+from sim import Scenario, to_wire
 
 
 def stats_us(samples_s: list[float]) -> dict:
@@ -36,9 +37,13 @@ def fmt(name: str, s: dict) -> str:
 
 
 def put_to_estimate(client, vehicle: str, samples: int, warmup: int = 10, timeout: float = 5.0) -> dict:
-    """Publishes one vector set at a time for ``vehicle`` and times until its estimate arrives."""
-    scenario = Scenario(seed=99)
+    """Resets ``vehicle`` to a still truth, then publishes one vector set at a time and times until its
+    estimate arrives (one in flight)."""
+    scenario = Scenario(seed=99, rate_rad_s=np.zeros(3))
+    t0 = 1000.0 + round(time.time() % 1000)  # after anything the vehicle has seen
+    client.reset(vehicle, q=to_wire(scenario.truth(t0)), sigma_deg=0.01, t=t0 - 1.0)
     arrived: dict[float, float] = {}
+    refused: list[dict] = []
     cond = threading.Condition()
 
     def on_estimate(e):
@@ -47,21 +52,31 @@ def put_to_estimate(client, vehicle: str, samples: int, warmup: int = 10, timeou
             arrived[e["t"]] = now
             cond.notify_all()
 
-    sub = client.subscribe_estimates(on_estimate, vehicle=vehicle)
-    client.health()  # the service knows the subscriber now
-    t0 = 1000.0 + time.time() % 1000  # after anything the vehicle has seen
-    out = []
-    for i in range(samples + warmup):
-        t = t0 + i
-        obs = scenario.vectors(t)
-        start = time.perf_counter()
-        client.publish_vectors(vehicle, t, obs)
+    def on_rejected(r):
         with cond:
-            if not cond.wait_for(lambda: t in arrived, timeout):
-                raise TimeoutError(f"no estimate for t = {t}")
-            if i >= warmup:
-                out.append(arrived[t] - start)
-    sub.undeclare()
+            refused.append(r)
+            cond.notify_all()
+
+    subs = [client.subscribe_estimates(on_estimate, vehicle=vehicle),
+            client.subscribe_rejections(on_rejected, vehicle=vehicle)]
+    client.health()  # the service knows the subscribers now
+    out = []
+    try:
+        for i in range(samples + warmup):
+            t = t0 + i
+            obs = scenario.vectors(t)
+            start = time.perf_counter()
+            client.publish_vectors(vehicle, t, obs)
+            with cond:
+                if not cond.wait_for(lambda: t in arrived or refused, timeout):
+                    raise TimeoutError(f"{vehicle}: no estimate for t = {t}")
+                if refused:
+                    raise RuntimeError(f"{vehicle}: the service refused a vector set: {refused}")
+                if i >= warmup:
+                    out.append(arrived[t] - start)
+    finally:
+        for sub in subs:
+            sub.undeclare()
     return stats_us(out)
 
 
@@ -189,7 +204,6 @@ def measure(service, client, samples: int, vehicles: dict[str, str]) -> dict[str
 
     results = {}
     for vehicle, label in vehicles.items():
-        client.reset(vehicle, q={"w": 1, "x": 0, "y": 0, "z": 0}, sigma_deg=0.01, t=0.0)
         results[f"service: put vectors → estimate ({label})"] = put_to_estimate(client, vehicle, samples)
     first = next(iter(vehicles))
     results["service: get P/V/attitude → reply"] = get_latency(client, lambda: client.get_attitude(first), samples)

@@ -67,6 +67,9 @@ def test_concurrent_vehicles_track_truth_within_3_sigma(service, client, new_cli
         assert {e["filter"] for e in mine} == {kind}
         last = mine[-1]
         validate("estimate", last)
+        row = next(r for r in client.vehicles() if r["vehicle"] == vehicle)
+        n_in = n_sets[vehicle] + sum(len(c.gyro) for c in streams[vehicle])
+        assert (row["received"], row["processed"], row["rejected"]) == (n_in, n_in, 0), row
         assert last["t"] == pytest.approx(60.0), f"{vehicle}: last estimate at t = {last['t']}"
 
         # The latest estimate against the truth at its time, per body axis.

@@ -164,11 +164,11 @@ def test_estimate_diagnostics_count_rejected_inputs(client):
     estimates = Collector()
     sub = subscribe_synced(client, client.subscribe_estimates, estimates, vehicle=vehicle)
     client.publish_vectors(vehicle, 3.0, s.vectors(3.0))
-    got = estimates.wait_for(lambda i: len(i) >= 1, 10, "an estimate")
+    got = estimates.wait_for(lambda i: any(e["t"] == 3.0 for e in i), 10, "the estimate at t = 3")
     sub.undeclare()
     row = next(r for r in client.vehicles() if r["vehicle"] == vehicle)
     assert row["rejected"] == 2
-    diag = got[0]["diagnostics"]
+    diag = next(e for e in got if e["t"] == 3.0)["diagnostics"]
     assert diag.get("rejected") == {"bad_sigma": 1, "out_of_order": 1}, (
         f"RUST BUG: diagnostics.rejected is {diag.get('rejected')!r} after two refused inputs "
         "(P/@/vehicles counts them: rejected = 2); proto/README.md and estimate.schema.json say it holds the "

@@ -7,7 +7,6 @@ from latency import fmt, put_to_estimate, get_latency
 
 def test_put_to_estimate_latency_is_small(client):
     vehicle = "lat-1"  # configured mekf
-    client.reset(vehicle, q={"w": 1, "x": 0, "y": 0, "z": 0}, sigma_deg=0.01, t=0.0)
     est = put_to_estimate(client, vehicle, samples=50)
     get = get_latency(client, client.health, samples=50)
     print("\n" + fmt("put vectors → estimate (mekf)", est) + "\n" + fmt("get P/@/health", get))

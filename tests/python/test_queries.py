@@ -68,7 +68,7 @@ def test_wildcard_query_of_a_subset(client):
     for i, v in enumerate(["sub-x1", "sub-x2"]):
         start_tracking(client, v, seed=300 + i)
     wait_until(lambda: has_estimate(client, "sub-x1") and has_estimate(client, "sub-x2"), 10, "sub-x estimates")
-    replies = client.query("sub-x*/attitude")
+    replies = client.query("sub-x$*/attitude")  # a sub-chunk wildcard
     assert sorted(k for k, ok, _ in replies if ok) == [f"{PREFIX}/sub-x1/attitude", f"{PREFIX}/sub-x2/attitude"]
 
 
