@@ -1,12 +1,22 @@
 #!/usr/bin/env bash
-# Runs every test of attitude-service on a fresh machine: formatting, the Rust unit, property and
-# integration tests (which run the real binary), with release optimisation (statistical tests are
-# Monte-Carlo runs). Installs nothing outside the project directory.
+# Runs every test of attitude-service on a fresh machine (what .ci/run calls):
+#   1. formatting;
+#   2. the Rust unit, property, integration and loopback-zenoh tests, and the benchmarks in test mode,
+#      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all);
+#   3. the black-box Python suite (eclipse-zenoh 1.10.2 in .venv, created and filled from PyPI) against
+#      the release binary.
+# Needs a Rust toolchain and python3; installs nothing outside the project directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 
-echo "== cargo test (optimised test profile)"
-cargo test --all-targets --locked
+echo "== cargo build --release"
+cargo build --release --locked
+
+echo "== cargo test --release"
+cargo test --release --all-targets --locked
+
+echo "== python black-box tests"
+bash scripts/python-tests.sh

@@ -4,9 +4,16 @@ A thin, synchronous wrapper around a zenoh session that speaks the service's JSO
 
     from attitude_client import AttitudeClient
     with AttitudeClient("tcp/127.0.0.1:7447") as client:
-        client.publish_gyro("sc1", 0.0, [0.0, 0.0, 0.01])
-        client.publish_vectors("sc1", 0.0, [([1, 0, 0], [0, 1, 0], 1e-4), ([0, 0, 1], [0, 0, 1], 1e-4)])
-        print(client.get_attitude("sc1"))  # {'vehicle': 'sc1', 't': 0.0, 'q': {'w': .., ..}, 'sigma_deg': [..]}
+        client.wait_for_service()
+        client.reset("sc1", filter="mekf", q=(1, 0, 0, 0), sigma_deg=0.1, t=0.0)
+        print(client.get_attitude("sc1"))  # {'vehicle': 'sc1', 't': 0.0, 'q': {'w': 1.0, ..}, 'sigma_deg': [..]}
+
+Measurements go in with ``publish_gyro(vehicle, t, omega)`` / ``publish_gyro_batch`` and
+``publish_vectors(vehicle, t, [(body, ref, sigma), ...])`` / ``publish_vectors_batch``; every estimate
+comes out on ``subscribe_estimates(callback)``. Puts are asynchronous: the service processes them after
+they arrive, so a query right after a put may not reflect it yet (wait for its estimate instead). On a new
+session, call :meth:`AttitudeClient.wait_for_service` before publishing: zenoh drops puts that it does not
+know a subscriber for yet.
 
 Keys are ``P/V/<leaf>`` with ``P`` the service's key prefix (``prefix``, default ``attitude``) and ``V`` a
 vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). Quaternions are ``{"w", "x", "y", "z"}``: the
@@ -21,7 +28,9 @@ reachable yet (right after the session opens, before zenoh has propagated the se
 a client may be created before the service runs; :meth:`AttitudeClient.wait_for_service` waits explicitly.
 
 Subscription callbacks run on zenoh's threads: keep them short (append to a list, put into a
-``queue.Queue``) and never call blocking client methods from them.
+``queue.Queue``) and never call blocking client methods from them. Close the client (or use it as a
+context manager); a client still open when the interpreter exits is closed then, because zenoh's
+callback thread would otherwise keep the process alive.
 
 Runtime dependencies: the Python standard library and ``eclipse-zenoh`` (tested with 1.10.2).
 """
@@ -31,7 +40,9 @@ from __future__ import annotations
 import json
 import logging
 import math
+import threading
 import time
+import weakref
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import zenoh
@@ -145,6 +156,15 @@ class AttitudeClient:
             else:
                 config.insert_json5("listen/endpoints", json.dumps([endpoint]))
         self.session = zenoh.open(config)
+        # zenoh runs Python callbacks on a non-daemon thread that lives as long as its subscriber: a
+        # script that ends without close() would hang in the interpreter's shutdown, which joins
+        # non-daemon threads before `atexit` runs. Close the session at that point instead.
+        register = getattr(threading, "_register_atexit", None)
+        if register is not None:
+            try:
+                register(_close_at_exit, weakref.ref(self))
+            except RuntimeError:  # already shutting down
+                pass
 
     # ------------------------------------------------------------------------------------------
     # Life cycle
@@ -353,6 +373,15 @@ class AttitudeClient:
     def subscribe_truth(self, callback: Callable[[dict], None], vehicle: str = "*"):
         """Calls ``callback(truth)`` for every truth message of the simulator (``P/<vehicle>/truth``)."""
         return self._subscribe(self.key(vehicle, "truth"), callback)
+
+
+def _close_at_exit(ref: "weakref.ref[AttitudeClient]") -> None:
+    client = ref()
+    if client is not None:
+        try:
+            client.close()
+        except Exception:
+            pass
 
 
 def attitude_error_deg(q_true: Mapping[str, float], q_est: Mapping[str, float]) -> float:

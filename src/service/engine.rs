@@ -80,6 +80,8 @@ pub struct Vehicle {
     received: AtomicU64,
     processed: AtomicU64,
     rejected: AtomicU64,
+    /// This vehicle's refused inputs by code, reported in its estimates' diagnostics.
+    rejected_by_code: Mutex<BTreeMap<String, u64>>,
 }
 
 impl Vehicle {
@@ -95,6 +97,7 @@ impl Vehicle {
             received: AtomicU64::new(0),
             processed: AtomicU64::new(0),
             rejected: AtomicU64::new(0),
+            rejected_by_code: Mutex::new(BTreeMap::new()),
         }
     }
 
@@ -113,6 +116,10 @@ impl Vehicle {
         info.rejected = self.rejected.load(Ordering::Relaxed);
         info
     }
+}
+
+fn refresh_info(v: &Vehicle, state: &VehicleState) {
+    *v.info.write().unwrap_or_else(|e| e.into_inner()) = info_of(state, 0, 0, 0);
 }
 
 fn info_of(state: &VehicleState, received: u64, processed: u64, rejected: u64) -> VehicleInfoMsg {
@@ -280,6 +287,11 @@ impl Engine {
         self.counters.reject(r.code);
         if let Some(v) = self.vehicle(vehicle) {
             v.rejected.fetch_add(1, Ordering::Relaxed);
+            *v.rejected_by_code
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .entry(r.code.as_str().to_string())
+                .or_insert(0) += 1;
         }
         tracing::debug!(key, code = r.code.as_str(), message = %r.message, "rejected");
         let msg = r.to_message(key);
@@ -404,6 +416,8 @@ impl Engine {
                                 v.processed.fetch_add(1, Ordering::Relaxed);
                                 self.counters.processed.fetch_add(1, Ordering::Relaxed);
                                 if let Outcome::Estimate(e) = outcome {
+                                    // What a subscriber sees must agree with P/@/vehicles at once.
+                                    refresh_info(v, &state);
                                     self.publish_estimate(v, e);
                                 }
                             }
@@ -414,6 +428,7 @@ impl Engine {
                         let base = self.config.filter_for(&v.id).clone();
                         let result = state.on_reset(&req, &base);
                         // (A refused reset is counted by the query handler that answers it.)
+                        refresh_info(v, &state);
                         if let Ok(r) = &result {
                             *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) =
                                 r.estimate.clone().map(Arc::new);
@@ -425,8 +440,7 @@ impl Engine {
                     }
                 }
             }
-            let info = info_of(&state, 0, 0, 0);
-            *v.info.write().unwrap_or_else(|e| e.into_inner()) = info;
+            refresh_info(v, &state);
         }
         v.scheduled.store(false, Ordering::Release);
         let pending = !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty();
@@ -435,7 +449,12 @@ impl Engine {
         }
     }
 
-    fn publish_estimate(&self, v: &Vehicle, e: EstimateMsg) {
+    fn publish_estimate(&self, v: &Vehicle, mut e: EstimateMsg) {
+        e.diagnostics.rejected = v
+            .rejected_by_code
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
         let payload = match serde_json::to_vec(&e) {
             Ok(p) => p,
             Err(err) => {

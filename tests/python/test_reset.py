@@ -17,6 +17,21 @@ def row(client, vehicle):
     return next((r for r in client.vehicles() if r["vehicle"] == vehicle), None)
 
 
+def settled_row(client, vehicle, reply):
+    """The vehicle's P/@/vehicles row once it reflects ``reply`` (see test_vehicles_row_is_current_after_reset:
+    the row may lag behind the reset reply)."""
+    seq = reply["estimate"]["seq"] if reply.get("estimate") else None
+
+    def current():
+        r = row(client, vehicle)
+        return r is not None and r["filter"] == reply["filter"] and r["state"] == reply["state"] and (
+            seq is None or r["estimates"] == seq
+        )
+
+    wait_until(current, 5, f"P/@/vehicles to show the reset of {vehicle}")
+    return row(client, vehicle)
+
+
 def test_reset_with_an_attitude(client):
     vehicle = "r-usque"  # configured usque; the reset switches it to the MEKF
     q = to_wire(Rotation.from_rotvec([0.3, -1.1, 2.0]))
@@ -34,8 +49,8 @@ def test_reset_with_an_attitude(client):
     for k in "wxyz":
         assert att["q"][k] == pytest.approx(q[k], abs=1e-9), (att["q"], q)
     assert att["sigma_deg"] == pytest.approx([0.5, 0.5, 0.5], rel=1e-9)
-    r = row(client, vehicle)
-    assert (r["state"], r["filter"], r["fiducial"]) == ("tracking", "mekf", None)
+    r = settled_row(client, vehicle, reply)
+    assert (r["state"], r["filter"], r["fiducial"], r["t"]) == ("tracking", "mekf", None, 100.0)
 
     # Per-axis sigma, bias and bias sigma.
     reply = client.reset(vehicle, q=q, sigma_deg=[0.1, 0.2, 0.3], bias=[1e-6, -2e-6, 3e-6], bias_sigma=1e-5, t=200.0)
@@ -69,7 +84,7 @@ def test_reset_switches_the_filter(client, filter, fiducial, particles):
     assert quat_distance(est["q"], q) < tol
     if particles:
         assert est["diagnostics"]["particles"] == particles
-    r = row(client, vehicle)
+    r = settled_row(client, vehicle, reply)
     assert (r["filter"], r["fiducial"]) == (filter, fiducial)
     # The filter keeps working: a vector set at the truth updates it.
     estimates = Collector()
@@ -79,6 +94,24 @@ def test_reset_switches_the_filter(client, filter, fiducial, particles):
     got = estimates.wait_for(lambda i: len(i) >= 1, 10, "an estimate after the reset")
     sub.undeclare()
     assert got[0]["t"] == 11.0 and got[0]["filter"] == filter and got[0]["seq"] == est["seq"] + 1
+
+
+def test_vehicles_row_is_current_after_reset(client):
+    """Read-your-writes: once the reset reply is in, P/@/vehicles shows the new filter, time and count."""
+    stale = []
+    n = 300
+    for i in range(n):
+        f = ("mekf", "usque")[i % 2]
+        reply = client.reset("r-ryw", filter=f, q=(1, 0, 0, 0), sigma_deg=1, t=float(i))
+        r = row(client, "r-ryw")
+        if (r["filter"], r["t"], r["estimates"]) != (f, float(i), reply["estimate"]["seq"]):
+            stale.append((i, f, reply["estimate"]["seq"], r))
+    assert not stale, (
+        f"RUST BUG: P/@/vehicles was stale right after the reset reply in {len(stale)} of {n} resets, e.g. "
+        f"reset #{stale[0][0]} to {stale[0][1]} (estimate seq {stale[0][2]}) then P/@/vehicles said {stale[0][3]}. "
+        "engine.rs Engine::work sends the reset reply inside the loop but refreshes Vehicle::info only after the "
+        "worker's turn; refresh it before `reply.send(..)` (and before publishing an estimate)"
+    )
 
 
 def test_reset_without_attitude_initialises_from_the_next_set(client):
@@ -116,8 +149,8 @@ INVALID = [
 def test_invalid_reset_is_refused_and_changes_nothing(client, request_, code):
     vehicle = "r-stable"
     q = to_wire(Rotation.from_rotvec([-0.4, 0.2, 0.9]))
-    client.reset(vehicle, filter="usque", fiducial="propagated", q=q, sigma_deg=0.2, t=50.0)
-    before = (client.get_state(vehicle), row(client, vehicle))
+    reply = client.reset(vehicle, filter="usque", fiducial="propagated", q=q, sigma_deg=0.2, t=50.0)
+    before = (client.get_state(vehicle), settled_row(client, vehicle, reply))
     health = client.health()
 
     replies = client.query(f"{vehicle}/reset", payload=json.dumps(request_))
