@@ -10,79 +10,6 @@ use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
 use nalgebra::Vector3;
 
-const DT: f64 = 0.1;
-
-/// A steady-state filter and a generator of its next (gyro, vectors) pair.
-struct Bench {
-    filter: Box<dyn AttitudeFilter>,
-    truth: Quaternion,
-    t: f64,
-    omega: Vector3<f64>,
-}
-
-impl Bench {
-    fn new(spec: &str, particles: usize) -> Bench {
-        let mut config = FilterConfig::new(spec.parse().unwrap(), GyroNoise::standard());
-        config.particles = particles;
-        let truth = Quaternion::new(0.1, -0.2, 0.3, 0.9).normalized().unwrap();
-        let init = InitialState {
-            t_s: Some(0.0),
-            q: truth,
-            sigma_att_rad: Vector3::repeat(1e-3),
-            bias_rad_s: Vector3::zeros(),
-            bias_sigma_rad_s: Vector3::repeat(1e-6),
-            uniform_attitude: false,
-        };
-        let mut b = Bench {
-            filter: build_filter(&config, &init, 1).unwrap(),
-            truth,
-            t: 0.0,
-            omega: Vector3::new(0.01, -0.02, 0.005),
-        };
-        for _ in 0..50 {
-            b.step();
-        }
-        b
-    }
-
-    fn measurements(&mut self) -> (Measurement, Measurement) {
-        let gyro = Measurement::Gyro(GyroSample {
-            t_s: self.t,
-            omega_body_rad_s: self.omega,
-        });
-        self.truth = self.truth.propagate(&self.omega, DT);
-        self.t += DT;
-        let a = self.truth.attitude_matrix();
-        let refs = [
-            Vector3::x(),
-            Vector3::new(0.0, 0.6, 0.8),
-            Vector3::new(0.0, -0.8, 0.6),
-        ];
-        let observations = refs
-            .iter()
-            .map(|r| VectorObservation {
-                body: a * r,
-                reference: *r,
-                sigma: 1e-4,
-                sensor: None,
-            })
-            .collect();
-        (
-            gyro,
-            Measurement::Vectors(ObservationSet {
-                t_s: self.t,
-                observations,
-            }),
-        )
-    }
-
-    fn step(&mut self) {
-        let (g, v) = self.measurements();
-        self.filter.process(&g).unwrap();
-        self.filter.process(&v).unwrap();
-    }
-}
-
 fn filters(c: &mut Criterion) {
     let mut group = c.benchmark_group("step (gyro + 3 vectors)");
     for (name, spec, n) in [
@@ -94,7 +21,7 @@ fn filters(c: &mut Criterion) {
         ("qpf:average/4000", "qpf:average", 4000),
         ("qpf:propagated/1000", "qpf:propagated", 1000),
     ] {
-        let b = std::cell::RefCell::new(Bench::new(spec, n.max(2)));
+        let b = std::cell::RefCell::new(SteadyState::new(spec, n.max(2)).unwrap());
         group.bench_function(name, |bench| {
             bench.iter_batched(
                 || b.borrow_mut().measurements(),
@@ -135,8 +62,8 @@ fn wire(c: &mut Criterion) {
     c.bench_function("parse vectors (3 obs)", |b| {
         b.iter(|| decode_batch::<VectorsMsg>(black_box(vectors), &limits).unwrap())
     });
-    let mut bench = Bench::new("qpf:average", 300);
-    bench.step();
+    let mut bench = SteadyState::new("qpf:average", 300).unwrap();
+    bench.step().unwrap();
     let e = bench.filter.estimate();
     let spec = bench.filter.spec();
     c.bench_function("serialise estimate", |b| {

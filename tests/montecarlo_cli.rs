@@ -308,3 +308,29 @@ fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+#[test]
+fn bench_reports_every_filter_as_json() {
+    let output = bin()
+        .args(["bench", "--json", "--seconds", "0.05", "--particles", "200"])
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    for key in [
+        "qpf_ns_per_particle_step",
+        "qpf_us_per_step",
+        "usque_us_per_step",
+        "mekf_us_per_step",
+    ] {
+        let x = v[key].as_f64().unwrap_or(f64::NAN);
+        assert!(x.is_finite() && x > 0.0, "{key}: {v}");
+    }
+    assert_eq!(v["particles"], 200);
+    // The particle filter costs more than the MEKF in the same run.
+    assert!(v["qpf_over_mekf"].as_f64().unwrap() > 1.0);
+}

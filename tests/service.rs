@@ -420,3 +420,31 @@ fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
         assert!(parse(bad, "test").is_err(), "{bad} accepted");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
+    use attitude_service::service::keys::Keys;
+    use attitude_service::tools::loadgen::{echo, run, LoadOptions};
+    let h = Harness::start(config(r#"{ service: { filter: { kind: "mekf" } } }"#)).await;
+    let options = LoadOptions {
+        vehicles: 3,
+        rate_hz: 20.0,
+        duration_s: 1.0,
+        vehicle_prefix: "lg".into(),
+        drain_s: 5.0,
+    };
+    let keys = Keys::new("attitude");
+    let r = run(&h.client, &keys, &options, "service").await.unwrap();
+    assert_eq!(
+        (r.sent, r.estimates, r.lost, r.rejected),
+        (60, 60, 0, 0),
+        "{r:?}"
+    );
+    assert!(r.p50_us > 0.0 && r.p99_us >= r.p50_us && r.max_us >= r.p99_us);
+    // The bare round trip through the echo, measured the same way on another prefix.
+    let echo_keys = Keys::new("echo-test");
+    let _echo = echo(&h.client, &echo_keys).await.unwrap();
+    let e = run(&h.client, &echo_keys, &options, "echo").await.unwrap();
+    assert_eq!((e.sent, e.estimates, e.lost), (60, 60, 0), "{e:?}");
+    h.stop().await;
+}

@@ -1,0 +1,287 @@
+//! `attitude-service loadgen`: publishes gyro and vector messages for K vehicles at a fixed rate against
+//! a running service and measures sustained throughput and put→estimate latency; `--echo` measures a
+//! bare zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors`, put the payload
+//! back on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
+
+use crate::service::keys::{Keys, Leaf};
+use crate::wire::{GyroMsg, ObservationMsg, VectorsMsg};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use zenoh::bytes::Encoding;
+use zenoh::qos::CongestionControl;
+
+#[derive(Clone, Debug)]
+pub struct LoadOptions {
+    pub vehicles: usize,
+    /// Gyro and vector messages per vehicle per second (each).
+    pub rate_hz: f64,
+    pub duration_s: f64,
+    /// Vehicle ids `<vehicle_prefix><n>`.
+    pub vehicle_prefix: String,
+    /// How long to wait for the last estimates after sending stops, s.
+    pub drain_s: f64,
+}
+
+/// The report (`--json` prints it as one object).
+#[derive(Clone, Debug, Serialize)]
+pub struct LoadReport {
+    /// `service` or `echo`.
+    pub mode: String,
+    pub vehicles: usize,
+    pub rate_hz: f64,
+    pub duration_s: f64,
+    /// Vector messages sent (each should produce one estimate); gyro messages are sent too.
+    pub sent: u64,
+    pub gyro_sent: u64,
+    /// Estimates (or echoes) received for the vector messages sent.
+    pub estimates: u64,
+    /// Vector messages without an estimate after the drain period.
+    pub lost: u64,
+    /// Rejections published by the service for these vehicles.
+    pub rejected: u64,
+    /// Estimates per second over the sending period.
+    pub rate_per_s: f64,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub max_us: f64,
+    /// Largest delay of the sender behind its schedule, ms (the load generator's own limit).
+    pub send_lag_max_ms: f64,
+}
+
+#[derive(serde::Deserialize)]
+struct JustT {
+    t: f64,
+}
+
+fn time_key(t: f64) -> i64 {
+    (t * 1e6).round() as i64
+}
+
+/// The echo: every vector message comes straight back on the vehicle's estimate key.
+pub async fn echo(
+    session: &zenoh::Session,
+    keys: &Keys,
+) -> Result<zenoh::pubsub::Subscriber<()>, zenoh::Error> {
+    let publisher = session.clone();
+    let k = keys.clone();
+    session
+        .declare_subscriber(keys.all(Leaf::Vectors))
+        .callback(move |s: zenoh::sample::Sample| {
+            if let Some((vehicle, _)) = k.split(s.key_expr().as_str()) {
+                let _ = zenoh::Wait::wait(
+                    publisher
+                        .put(k.vehicle(vehicle, Leaf::Estimate), s.payload().clone())
+                        .encoding(Encoding::APPLICATION_JSON)
+                        // As the service's own puts: back-pressure, never a silent drop.
+                        .congestion_control(CongestionControl::Block)
+                        .express(true),
+                );
+            }
+        })
+        .await
+}
+
+fn star_set(t: f64, i: usize) -> VectorsMsg {
+    // A fixed attitude per vehicle (a rotation about z by i·0.01 rad): A = R3(a).
+    let a = i as f64 * 0.01;
+    let (c, s) = (a.cos(), a.sin());
+    let refs = [[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.0, -0.8, 0.6]];
+    VectorsMsg {
+        t,
+        obs: refs
+            .iter()
+            .map(|r| ObservationMsg {
+                body: [c * r[0] + s * r[1], -s * r[0] + c * r[1], r[2]],
+                reference: *r,
+                sigma: 1e-4,
+                sensor: None,
+            })
+            .collect(),
+    }
+}
+
+async fn probe(
+    session: &zenoh::Session,
+    keys: &Keys,
+    vehicle_prefix: &str,
+) -> Result<(), zenoh::Error> {
+    let vehicle = format!("{vehicle_prefix}0");
+    let got = Arc::new(AtomicU64::new(0));
+    let g = got.clone();
+    let _sub = session
+        .declare_subscriber(keys.vehicle(&vehicle, Leaf::Estimate))
+        .callback(move |_| {
+            g.fetch_add(1, Ordering::Relaxed);
+        })
+        .await?;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut t = 0.0;
+    while got.load(Ordering::Relaxed) == 0 {
+        if Instant::now() > deadline {
+            return Err("no estimate for the probe vehicle within 10 s: is the service (or echo) reachable?".into());
+        }
+        let payload = serde_json::to_vec(&star_set(t, 0)).unwrap_or_default();
+        session
+            .put(keys.vehicle(&vehicle, Leaf::Vectors), payload)
+            .await?;
+        t += 1.0;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    // Let the other declarations settle too.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    Ok(())
+}
+
+/// Runs the load. The session must reach the service (or the echo).
+pub async fn run(
+    session: &zenoh::Session,
+    keys: &Keys,
+    options: &LoadOptions,
+    mode: &str,
+) -> Result<LoadReport, zenoh::Error> {
+    let ids: Vec<String> = (1..=options.vehicles)
+        .map(|n| format!("{}{n}", options.vehicle_prefix))
+        .collect();
+    let index: HashMap<String, usize> = ids
+        .iter()
+        .cloned()
+        .enumerate()
+        .map(|(i, v)| (v, i))
+        .collect();
+    // Per vehicle: send instant of each outstanding vector message, by time stamp.
+    let pending: Arc<Vec<Mutex<HashMap<i64, Instant>>>> =
+        Arc::new((0..ids.len()).map(|_| Mutex::new(HashMap::new())).collect());
+    let latencies: Arc<Mutex<Vec<f64>>> = Arc::new(Mutex::new(Vec::new()));
+    let rejected = Arc::new(AtomicU64::new(0));
+
+    let (p, l, k, idx) = (
+        pending.clone(),
+        latencies.clone(),
+        keys.clone(),
+        index.clone(),
+    );
+    let _estimates = session
+        .declare_subscriber(keys.all(Leaf::Estimate))
+        .callback(move |s: zenoh::sample::Sample| {
+            let now = Instant::now();
+            let Some((vehicle, _)) = k.split(s.key_expr().as_str()) else {
+                return;
+            };
+            let Some(&i) = idx.get(vehicle) else { return };
+            let Ok(msg) = serde_json::from_slice::<JustT>(&s.payload().to_bytes()) else {
+                return;
+            };
+            let sent = p[i]
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .remove(&time_key(msg.t));
+            if let Some(sent) = sent {
+                l.lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .push(now.duration_since(sent).as_secs_f64() * 1e6);
+            }
+        })
+        .await?;
+    let (r, k, idx) = (rejected.clone(), keys.clone(), index.clone());
+    let _rejections = session
+        .declare_subscriber(keys.all(Leaf::Rejected))
+        .callback(move |s: zenoh::sample::Sample| {
+            if k.split(s.key_expr().as_str())
+                .is_some_and(|(v, _)| idx.contains_key(v))
+            {
+                r.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .await?;
+    // Prove the path before the clock starts: a probe vehicle (`<prefix>0`) until its first estimate
+    // comes back, so that declarations still propagating are not counted as losses.
+    probe(session, keys, &options.vehicle_prefix).await?;
+
+    let put = |key: String, payload: Vec<u8>| {
+        session
+            .put(key, payload)
+            .encoding(Encoding::APPLICATION_JSON)
+            .congestion_control(CongestionControl::Block)
+            .express(true)
+    };
+    let period = Duration::from_secs_f64(1.0 / options.rate_hz);
+    let ticks = (options.duration_s * options.rate_hz).round().max(1.0) as u64;
+    let start = Instant::now();
+    let (mut sent, mut gyro_sent, mut lag_max) = (0u64, 0u64, Duration::ZERO);
+    let gyro_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Gyro)).collect();
+    let vector_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Vectors)).collect();
+    for tick in 0..ticks {
+        let due = start + period * tick as u32;
+        let now = Instant::now();
+        if now < due {
+            tokio::time::sleep_until(due.into()).await;
+        } else {
+            lag_max = lag_max.max(now - due);
+        }
+        let t = tick as f64 / options.rate_hz;
+        for i in 0..ids.len() {
+            let vectors = serde_json::to_vec(&star_set(t, i)).unwrap_or_default();
+            pending[i]
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(time_key(t), Instant::now());
+            put(vector_keys[i].clone(), vectors).await?;
+            sent += 1;
+            let gyro = serde_json::to_vec(&GyroMsg { t, omega: [0.0; 3] }).unwrap_or_default();
+            put(gyro_keys[i].clone(), gyro).await?;
+            gyro_sent += 1;
+        }
+    }
+    let sending = start.elapsed().as_secs_f64();
+    // Drain: wait until every estimate arrived or the drain period ends.
+    let deadline = Instant::now() + Duration::from_secs_f64(options.drain_s);
+    while Instant::now() < deadline {
+        let outstanding: usize = pending
+            .iter()
+            .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).len())
+            .sum();
+        if outstanding == 0 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let mut lat = latencies.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    lat.sort_by(f64::total_cmp);
+    let pct = |p: f64| -> f64 {
+        if lat.is_empty() {
+            f64::NAN
+        } else {
+            lat[((lat.len() - 1) as f64 * p).round() as usize]
+        }
+    };
+    let estimates = lat.len() as u64;
+    Ok(LoadReport {
+        mode: mode.to_string(),
+        vehicles: options.vehicles,
+        rate_hz: options.rate_hz,
+        duration_s: options.duration_s,
+        sent,
+        gyro_sent,
+        estimates,
+        lost: sent.saturating_sub(estimates),
+        rejected: rejected.load(Ordering::Relaxed),
+        rate_per_s: estimates as f64 / sending,
+        p50_us: pct(0.5),
+        p99_us: pct(0.99),
+        max_us: lat.last().copied().unwrap_or(f64::NAN),
+        send_lag_max_ms: lag_max.as_secs_f64() * 1e3,
+    })
+}
+
+impl LoadReport {
+    pub fn table(&self) -> String {
+        format!(
+            "{} load: {} vehicles × {} Hz for {} s\n  sent {} vector + {} gyro messages; {} estimates ({:.0}/s), {} lost, {} rejected\n  put→estimate latency p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs; sender lag max {:.1} ms\n",
+            self.mode, self.vehicles, self.rate_hz, self.duration_s, self.sent, self.gyro_sent, self.estimates,
+            self.rate_per_s, self.lost, self.rejected, self.p50_us, self.p99_us, self.max_us, self.send_lag_max_ms
+        )
+    }
+}
