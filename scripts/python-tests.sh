@@ -22,6 +22,8 @@ PACKAGES=(
   "numpy==2.4.6"
   "jsonschema==4.26.0"
   "scipy==1.17.1"
+  "vqf==2.1.2"
+  "h5py==3.16.0"
 )
 
 if [[ ! -x "$PY" ]]; then

@@ -53,6 +53,9 @@ enum Command {
     /// Each filter's per-step cost on this machine (gyro propagation + an update with three vector
     /// observations), against the MEKF measured in the same run.
     Bench(BenchArgs),
+    /// Our MEKF over a recorded IMU trial (gyro, accelerometer, magnetometer) in one process without
+    /// the network, timed: the Rust half of `bench --vqf`.
+    ImuBench(ImuBenchArgs),
     /// Load against a running service: K vehicles publishing gyro and vectors at a rate; reports
     /// throughput, put→estimate latency percentiles and losses. --echo measures a bare zenoh round
     /// trip through a trivial echo the same way (the baseline).
@@ -205,6 +208,22 @@ struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// Also run the side-by-side of our MEKF (no network) and VQF (the `vqf` PyPI package, C++ batch
+    /// mode) on this BROAD trial, through benches/vqf_compare.py in the project's .venv (created by
+    /// scripts/python-tests.sh).
+    #[arg(long)]
+    vqf: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ImuBenchArgs {
+    /// Samples file written by benches/vqf_compare.py (little-endian f64: n, rate, then
+    /// t, gyro(3), acc(3), mag(3) per sample).
+    #[arg(long)]
+    samples: PathBuf,
+    /// Write the estimated quaternions here.
+    #[arg(long)]
+    estimates_out: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -245,6 +264,14 @@ fn main() -> Result<()> {
         Command::Simulate(args) => runtime()?.block_on(simulate_cmd(args)),
         Command::Demo(args) => runtime()?.block_on(demo_cmd(args)),
         Command::Bench(args) => bench_cmd(args),
+        Command::ImuBench(args) => {
+            let line = attitude_service::tools::imu_bench::main_entry(
+                &args.samples,
+                args.estimates_out.as_deref(),
+            )?;
+            println!("{line}");
+            Ok(())
+        }
         Command::Loadgen(args) => runtime()?.block_on(loadgen_cmd(args)),
         Command::Scenarios => {
             for name in ScenarioName::ALL {
@@ -586,12 +613,63 @@ fn bench_cmd(args: BenchArgs) -> Result<()> {
         args.particles,
         std::time::Duration::from_secs_f64(args.seconds),
     )?;
+    let vqf = match &args.vqf {
+        None => None,
+        Some(trial) => Some(vqf_side_by_side(trial)?),
+    };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        let mut v = serde_json::to_value(&report)?;
+        if let (Some(obj), Some(x)) = (v.as_object_mut(), vqf) {
+            obj.insert("vqf".into(), x);
+        }
+        println!("{v}");
     } else {
         print!("{}", report.table());
+        if let Some(x) = vqf {
+            println!(
+                "\nMEKF vs VQF on {}:\n{}",
+                args.vqf
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default(),
+                serde_json::to_string_pretty(&x)?
+            );
+        }
     }
     Ok(())
+}
+
+/// Runs benches/vqf_compare.py in the project's venv against this binary and returns its JSON.
+fn vqf_side_by_side(trial: &std::path::Path) -> Result<serde_json::Value> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = root.join(".venv/bin/python");
+    let script = root.join("benches/vqf_compare.py");
+    if !python.exists() {
+        bail!("{} is missing: run `bash scripts/python-tests.sh` once to create the venv (with vqf and h5py)", python.display());
+    }
+    let exe = std::env::current_exe()?;
+    let out = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(trial)
+        .arg("--json")
+        .arg("--no-python-loop")
+        .arg("--bin")
+        .arg(&exe)
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    if !out.status.success() {
+        bail!(
+            "vqf_compare.py failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.trim_start().starts_with('{'))
+        .unwrap_or("{}");
+    Ok(serde_json::from_str(line)?)
 }
 
 fn peer_config(listen: &[String], connect: &[String]) -> Result<zenoh::Config> {
