@@ -2,10 +2,7 @@
 //! observations), the quaternion average, and the wire messages. `cargo bench`.
 
 use attitude_service::attitude::{weighted_average, Quaternion};
-use attitude_service::filters::{build_filter, AttitudeFilter, FilterConfig, InitialState};
-use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
-};
+use attitude_service::tools::bench::SteadyState;
 use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
 use nalgebra::Vector3;
