@@ -256,3 +256,42 @@ fn converges_from_a_large_error_with_an_honest_covariance() {
         assert!(e.diagnostics.ess.unwrap() > 1.0);
     }
 }
+
+#[test]
+fn the_estimate_between_updates_follows_the_cloud_and_changes_nothing() {
+    for spec in ["qpf:average", "qpf:propagated"] {
+        let mut f = build_filter(
+            &config(spec, 500),
+            &initial(Quaternion::IDENTITY, 0.01, false),
+            2,
+        )
+        .unwrap();
+        let omega = Vector3::new(0.0, 0.0, 0.05);
+        // No gyro sample yet: the driver propagates with the bias estimate alone.
+        f.process(&Measurement::Gyro(GyroSample {
+            t_s: 1.0,
+            omega_body_rad_s: omega,
+        }))
+        .unwrap();
+        f.process(&Measurement::Gyro(GyroSample {
+            t_s: 11.0,
+            omega_body_rad_s: omega,
+        }))
+        .unwrap();
+        let a = f.estimate();
+        assert_eq!(
+            a,
+            f.estimate(),
+            "{spec}: asking twice gives the same answer"
+        );
+        // 10 s at 0.05 rad/s about z: the cloud's estimate turned 0.5 rad with it.
+        let expected = Quaternion::from_rotation_vector(&Vector3::new(0.0, 0.0, 0.5));
+        assert!(
+            expected.compose(&a.q.inverse()).angle() < 0.03,
+            "{spec}: {:?}",
+            a.q
+        );
+        assert!(is_spd(&a.covariance));
+        assert_eq!(a.t_s, 11.0);
+    }
+}

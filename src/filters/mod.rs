@@ -226,6 +226,10 @@ pub trait FilterCore: Send {
     fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError>;
     /// The estimate (its `t_s` is filled in by the driver).
     fn estimate(&self) -> Estimate;
+    /// The current gyro-bias estimate, rad/s (cheaper than a whole estimate for a particle filter).
+    fn bias_rad_s(&self) -> Vector3<f64> {
+        self.estimate().bias_rad_s
+    }
 }
 
 /// Object-safe interface every filter is used through.
@@ -280,7 +284,7 @@ impl<F: FilterCore> Driver<F> {
         if dt > 0.0 {
             let omega = match self.omega_meas_rad_s {
                 Some(w) => w,
-                None => self.core.estimate().bias_rad_s,
+                None => self.core.bias_rad_s(),
             };
             self.core.propagate(&omega, dt)?;
             self.t_s = Some(t_s);

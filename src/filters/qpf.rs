@@ -435,80 +435,10 @@ impl Qpf {
         }
     }
 
-    /// Computes every particle's local state about `fid` into `self.local` and returns the weighted
-    /// mean and covariance of `[δp; β]`, in one pass. The bias is taken relative to the current bias
-    /// estimate so that the second moment does not cancel catastrophically.
+    /// Computes every particle's local state about `fid` into `self.local` (for the regulariser that
+    /// may follow) and returns the weighted mean and covariance of `[δp; β]`, in one pass.
     fn locals_and_moments(&mut self, fid: &Quaternion) -> (Vector6<f64>, Matrix6<f64>) {
-        let fid_inv = components(&fid.inverse());
-        let b_ref = self.beta_hat;
-        let c = &self.cloud;
-        let [l0, l1, l2, l3, l4, l5] = &mut self.local;
-        let mut sum = [0.0f64; 6];
-        let mut sq = [0.0f64; 21];
-        let n = c.len();
-        let (l0, l1, l2, l3, l4, l5) = (
-            &mut l0[..n],
-            &mut l1[..n],
-            &mut l2[..n],
-            &mut l3[..n],
-            &mut l4[..n],
-            &mut l5[..n],
-        );
-        let (qx, qy, qz, qw, bx, by, bz, wt) = (
-            &c.qx[..n],
-            &c.qy[..n],
-            &c.qz[..n],
-            &c.qw[..n],
-            &c.bx[..n],
-            &c.by[..n],
-            &c.bz[..n],
-            &c.w[..n],
-        );
-        for i in 0..n {
-            let p = mrp_about([qx[i], qy[i], qz[i], qw[i]], fid_inv);
-            let x = [
-                p[0],
-                p[1],
-                p[2],
-                bx[i] - b_ref[0],
-                by[i] - b_ref[1],
-                bz[i] - b_ref[2],
-            ];
-            l0[i] = x[0];
-            l1[i] = x[1];
-            l2[i] = x[2];
-            l3[i] = x[3];
-            l4[i] = x[4];
-            l5[i] = x[5];
-            let w = wt[i];
-            let wx = [w * x[0], w * x[1], w * x[2], w * x[3], w * x[4], w * x[5]];
-            for r in 0..6 {
-                sum[r] += wx[r];
-            }
-            // The 21 distinct products of the upper triangle, row by row.
-            let mut k = 0;
-            for r in 0..6 {
-                for col in r..6 {
-                    sq[k] += wx[r] * x[col];
-                    k += 1;
-                }
-            }
-        }
-        let mut mean = Vector6::from_column_slice(&sum);
-        let mut cov = Matrix6::zeros();
-        let mut k = 0;
-        for r in 0..6 {
-            for col in r..6 {
-                let v = sq[k] - sum[r] * sum[col];
-                cov[(r, col)] = v;
-                cov[(col, r)] = v;
-                k += 1;
-            }
-        }
-        for r in 3..6 {
-            mean[r] += b_ref[r - 3];
-        }
-        (mean, cov)
+        cloud_moments(&self.cloud, fid, &self.beta_hat, Some(&mut self.local))
     }
 
     fn log_likelihoods(&mut self, observations: &[VectorObservation]) {
@@ -738,6 +668,75 @@ impl Qpf {
     }
 }
 
+/// The weighted mean and covariance of the local states `[MRP(qᵢ ⊗ fid⁻¹); βᵢ]` in one pass, storing the
+/// states in `local` when given. The bias is taken relative to `b_ref` (the current estimate) so that
+/// the second moment does not cancel catastrophically.
+fn cloud_moments(
+    c: &Cloud,
+    fid: &Quaternion,
+    b_ref: &Vector3<f64>,
+    mut local: Option<&mut [Vec<f64>; 6]>,
+) -> (Vector6<f64>, Matrix6<f64>) {
+    let fid_inv = components(&fid.inverse());
+    let mut sum = [0.0f64; 6];
+    let mut sq = [0.0f64; 21];
+    let n = c.len();
+    let (qx, qy, qz, qw, bx, by, bz, wt) = (
+        &c.qx[..n],
+        &c.qy[..n],
+        &c.qz[..n],
+        &c.qw[..n],
+        &c.bx[..n],
+        &c.by[..n],
+        &c.bz[..n],
+        &c.w[..n],
+    );
+    for i in 0..n {
+        let p = mrp_about([qx[i], qy[i], qz[i], qw[i]], fid_inv);
+        let x = [
+            p[0],
+            p[1],
+            p[2],
+            bx[i] - b_ref[0],
+            by[i] - b_ref[1],
+            bz[i] - b_ref[2],
+        ];
+        if let Some(l) = local.as_deref_mut() {
+            for (r, v) in x.iter().enumerate() {
+                l[r][i] = *v;
+            }
+        }
+        let w = wt[i];
+        let wx = [w * x[0], w * x[1], w * x[2], w * x[3], w * x[4], w * x[5]];
+        for r in 0..6 {
+            sum[r] += wx[r];
+        }
+        // The 21 distinct products of the upper triangle, row by row.
+        let mut k = 0;
+        for r in 0..6 {
+            for col in r..6 {
+                sq[k] += wx[r] * x[col];
+                k += 1;
+            }
+        }
+    }
+    let mut mean = Vector6::from_column_slice(&sum);
+    let mut cov = Matrix6::zeros();
+    let mut k = 0;
+    for r in 0..6 {
+        for col in r..6 {
+            let v = sq[k] - sum[r] * sum[col];
+            cov[(r, col)] = v;
+            cov[(col, r)] = v;
+            k += 1;
+        }
+    }
+    for r in 3..6 {
+        mean[r] += b_ref[r - 3];
+    }
+    (mean, cov)
+}
+
 /// `D` with `D Dᵀ = S`; a singular `S` (a collapsed cloud) gets a tiny relative jitter on its diagonal.
 fn regularization_factor(s: &Matrix6<f64>) -> Matrix6<f64> {
     if let Some(c) = s.cholesky() {
@@ -828,16 +827,24 @@ impl FilterCore for Qpf {
         result
     }
 
+    fn bias_rad_s(&self) -> Vector3<f64> {
+        self.beta_hat
+    }
+
     fn estimate(&self) -> Estimate {
         let (q, bias, cov) = if self.stale {
-            // Between updates: the cloud's moments about its re-centred fiducial (on a copy: this
-            // method does not change the filter).
-            let mut f = self.clone();
-            let fid = match f.fiducial {
-                Fiducial::Average => f.average_or(&f.q_prop).0,
-                Fiducial::Propagated => f.recenter(&f.q_prop.clone()),
+            // Between updates: the cloud's moments about its re-centred fiducial, computed without
+            // storing anything (this method does not change the filter).
+            let fid = match self.fiducial {
+                Fiducial::Average => self.average_or(&self.q_prop).0,
+                Fiducial::Propagated => {
+                    let (mean, _) = cloud_moments(&self.cloud, &self.q_prop, &self.beta_hat, None);
+                    Grp::MRP
+                        .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
+                        .compose(&self.q_prop)
+                }
             };
-            let (mean, cov) = f.locals_and_moments(&fid);
+            let (mean, cov) = cloud_moments(&self.cloud, &fid, &self.beta_hat, None);
             Self::estimate_from(&fid, &mean, &cov)
         } else {
             (self.q_hat, self.beta_hat, self.p_hat)

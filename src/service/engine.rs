@@ -86,7 +86,7 @@ pub struct Vehicle {
 
 impl Vehicle {
     fn new(id: &str, state: VehicleState) -> Self {
-        let info = info_of(&state, 0, 0, 0);
+        let info = info_of(&state);
         Vehicle {
             id: id.to_string(),
             inbox: Mutex::new(VecDeque::new()),
@@ -119,10 +119,11 @@ impl Vehicle {
 }
 
 fn refresh_info(v: &Vehicle, state: &VehicleState) {
-    *v.info.write().unwrap_or_else(|e| e.into_inner()) = info_of(state, 0, 0, 0);
+    *v.info.write().unwrap_or_else(|e| e.into_inner()) = info_of(state);
 }
 
-fn info_of(state: &VehicleState, received: u64, processed: u64, rejected: u64) -> VehicleInfoMsg {
+/// The vehicle's row of `P/@/vehicles` from its state; `Vehicle::info` fills in the counters.
+fn info_of(state: &VehicleState) -> VehicleInfoMsg {
     VehicleInfoMsg {
         vehicle: state.id().to_string(),
         state: if state.is_tracking() {
@@ -134,9 +135,9 @@ fn info_of(state: &VehicleState, received: u64, processed: u64, rejected: u64) -
         filter: state.spec().kind.as_str().into(),
         fiducial: state.spec().fiducial.map(|f| f.as_str().into()),
         t: state.last_t(),
-        received,
-        processed,
-        rejected,
+        received: 0,
+        processed: 0,
+        rejected: 0,
         estimates: state.seq(),
     }
 }
