@@ -141,6 +141,10 @@ struct ServeArgs {
     /// Zenoh endpoint to connect to (repeatable); replaces the configuration's connect endpoints.
     #[arg(long)]
     connect: Vec<String>,
+    /// Checkpoint every vehicle's complete state into DIR (periodically and on shutdown) and resume
+    /// from it at start; replaces `service.persistence.state_dir`.
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
 }
 
 /// The simulated fleet of `simulate` and `demo`.
@@ -479,7 +483,10 @@ fn zenoh_config(json: &str, listen: &[String], connect: &[String]) -> Result<zen
 
 async fn serve(args: ServeArgs) -> Result<()> {
     init_logging();
-    let file = load_config(args.config.as_ref())?;
+    let mut file = load_config(args.config.as_ref())?;
+    if let Some(dir) = args.state_dir {
+        file.service.persistence.state_dir = Some(dir);
+    }
     let zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
     let session = zenoh::open(zc)
         .await

@@ -16,8 +16,8 @@
 
 use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
-    decode_batch, validate_vehicle_id, AttitudeMsg, CovarianceMsg, DiagnosticsMsg, ErrorMsg,
-    EstimateMsg, GyroMsg, HealthMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg,
+    decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg, DiagnosticsMsg, ErrorMsg,
+    EstimateMsg, GateCountsMsg, GyroMsg, HealthMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg,
     RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
@@ -506,6 +506,19 @@ fn full_estimate() -> EstimateMsg {
             resamples: Some(3),
             fiducial_fallbacks: Some(0),
             rejected: BTreeMap::from([("out_of_order".to_string(), 1)]),
+            gyro_gap_s: Some(2.5),
+            gyro_gaps: 1,
+            gate: BTreeMap::from([(
+                "st1".to_string(),
+                GateCountsMsg {
+                    accepted: 20,
+                    gated: 1,
+                },
+            )]),
+            consecutive_gated: 0,
+            rollbacks: 0,
+            reinits: BTreeMap::from([("gate".to_string(), 1)]),
+            held: 2,
         },
     }
 }
@@ -585,6 +598,18 @@ fn full_messages() -> Vec<(&'static str, Value)> {
             (INGEST_OVERFLOW.to_string(), 5),
         ]),
         queries: 4,
+        held: 2,
+        gated: 1,
+        reinits: 1,
+        rollbacks: 0,
+        checkpoints: Some(CheckpointHealthMsg {
+            state_dir: "/var/lib/attitude".into(),
+            interval_s: 10.0,
+            restored: 1,
+            skipped: 0,
+            written: 12,
+            failed: 0,
+        }),
     };
     let truth = TruthMsg {
         vehicle: "sc1".into(),
@@ -714,7 +739,7 @@ fn the_schemas_refuse_what_the_service_refuses() {
             "gyro" => decode_batch::<GyroMsg>(payload.as_bytes(), &limits)
                 .and_then(|b| {
                     b.iter()
-                        .map(GyroMsg::to_domain)
+                        .map(|g| g.to_domain(&limits))
                         .collect::<Result<Vec<_>, _>>()
                 })
                 .is_err(),
@@ -926,7 +951,7 @@ fn input_examples_are_accepted_by_the_service() {
             "{f}: times go back"
         );
         for g in batch {
-            g.to_domain()
+            g.to_domain(&InputLimits::default())
                 .unwrap_or_else(|r| panic!("{f}: {}", r.message));
         }
     }
@@ -1079,10 +1104,18 @@ fn required_fields_are_what_rust_always_sends() {
                 "state",
                 "reset-request",
                 "reset-reply",
+                "health",
             ]
             .contains(s)
         })
         .collect();
+    for (s, v) in full_messages() {
+        if s == "health" {
+            let mut h: HealthMsg = serde_json::from_value(v).unwrap();
+            h.checkpoints = None;
+            minimal.push((s, serde_json::to_value(h).unwrap()));
+        }
+    }
     let estimate = EstimateMsg {
         fiducial: None,
         diagnostics: DiagnosticsMsg::default(),

@@ -4,8 +4,8 @@
 //! Error state `x = [δα; Δβ]` (rad, rad/s), `δq = q ⊗ q̂⁻¹ ≈ [δα/2; 1]`.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Estimate, FilterConfig, FilterCore, FilterError, FilterSpec,
-    InitialState,
+    is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore, FilterError, FilterSpec,
+    InitialState, SavedFilterRef,
 };
 use crate::attitude::{skew, Quaternion};
 use crate::sensors::{GyroNoise, VectorObservation};
@@ -112,7 +112,7 @@ pub fn joseph_update(
 }
 
 /// The MEKF state.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Mekf {
     gyro: GyroNoise,
     q: Quaternion,
@@ -212,6 +212,16 @@ impl FilterCore for Mekf {
         self.diagnostics.nis = Some(nis);
         self.diagnostics.nis_dof = Some(3 * observations.len());
         Ok(())
+    }
+
+    fn inflate_attitude(&mut self, var_rad2: f64) {
+        for i in 0..3 {
+            self.p[(i, i)] += var_rad2;
+        }
+    }
+
+    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
+        SavedFilterRef::Mekf(driver)
     }
 
     fn estimate(&self) -> Estimate {

@@ -25,7 +25,7 @@ pub use qpf::{Kernel, Qpf, QpfOptions};
 pub use usque::{Usque, UsqueOptions};
 
 /// Which estimator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum FilterKind {
     /// Multiplicative extended Kalman filter (the baseline).
     Mekf,
@@ -37,7 +37,7 @@ pub enum FilterKind {
 
 /// How the fiducial quaternion that links the global quaternion and the local error space is chosen
 /// (the subject of the seed note).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Fiducial {
     /// The previous estimate propagated like an EKF (seed Eq. 1; original USQUE and QPF).
     Propagated,
@@ -46,7 +46,7 @@ pub enum Fiducial {
 }
 
 /// A filter and, for the sampling filters, its fiducial: `mekf`, `usque:propagated`, `qpf:average`, …
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct FilterSpec {
     pub kind: FilterKind,
     /// `None` for the MEKF, which has no fiducial.
@@ -115,7 +115,7 @@ impl FromStr for FilterSpec {
 }
 
 /// Settings common to every filter, plus the sampling filters' own.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FilterConfig {
     pub spec: FilterSpec,
     /// The gyro noise the filter assumes.
@@ -126,6 +126,42 @@ pub struct FilterConfig {
     pub qpf: QpfOptions,
     /// Tuning of USQUE (Rodrigues parameters, λ).
     pub usque: UsqueOptions,
+    /// How the uncertainty grows while gyro samples are missing.
+    pub gap: GapModel,
+}
+
+/// The uncertainty added while no gyro sample arrives.
+///
+/// Between samples the last measured rate is held. Once the time since the last sample exceeds
+/// `after_s` and [`GAP_INTERVALS`] of the gyro's usual interval, the held rate is no longer trusted to the gyro's noise model: the rate may have changed
+/// by an unknown angular acceleration (1σ `accel_sigma_rad_s2` per axis, constant over the gap), and the
+/// held sample's own noise (`σ_v²/Δt_g`, with `Δt_g` the interval it covered) is integrated over the
+/// whole gap. After a gap of `τ` the added attitude variance per axis is
+/// `σ_a² τ⁴/4 + (σ_v²/Δt_g) τ²`, added segment by segment as the filter propagates, counted from the
+/// last sample.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GapModel {
+    /// A gap starts no sooner than this after the last gyro sample, s.
+    pub after_s: f64,
+    /// 1σ of the unknown angular acceleration during a gap, rad/s² per axis.
+    pub accel_sigma_rad_s2: f64,
+}
+
+impl Default for GapModel {
+    fn default() -> Self {
+        GapModel {
+            after_s: 1.0,
+            accel_sigma_rad_s2: 1e-4,
+        }
+    }
+}
+
+impl GapModel {
+    /// Attitude variance per axis accumulated `tau_s` after the last gyro sample (`dt_g` its interval).
+    fn variance(&self, tau_s: f64, sigma_v: f64, dt_g_s: f64) -> f64 {
+        let a = self.accel_sigma_rad_s2;
+        a * a * tau_s.powi(4) / 4.0 + sigma_v * sigma_v / dt_g_s * tau_s * tau_s
+    }
 }
 
 impl FilterConfig {
@@ -136,6 +172,7 @@ impl FilterConfig {
             particles: 1000,
             qpf: QpfOptions::default(),
             usque: UsqueOptions::default(),
+            gap: GapModel::default(),
         }
     }
 }
@@ -156,7 +193,7 @@ pub struct InitialState {
 }
 
 /// What a filter knows about itself. Fields a filter does not have are `None`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Diagnostics {
     /// Gyro propagations and vector updates processed.
     pub propagations: u64,
@@ -174,10 +211,15 @@ pub struct Diagnostics {
     pub resamples: Option<u64>,
     /// Times the averaged fiducial was undecidable and the propagated one was used instead.
     pub fiducial_fallbacks: Option<u64>,
+    /// Time since the last gyro sample when it exceeds the gap threshold (a gyro gap is in progress:
+    /// the held rate is used and the attitude uncertainty is inflated), s.
+    pub gyro_gap_s: Option<f64>,
+    /// Gyro gaps seen so far.
+    pub gyro_gaps: u64,
 }
 
 /// A filter's estimate at its current time.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate {
     pub t_s: f64,
     pub q: Quaternion,
@@ -230,6 +272,13 @@ pub trait FilterCore: Send {
     fn bias_rad_s(&self) -> Vector3<f64> {
         self.estimate().bias_rad_s
     }
+    /// Adds `var_rad2` to the attitude-error variance about every body axis (uncertainty the gyro
+    /// model does not know of, e.g. a gyro gap). `var_rad2` is finite and non-negative.
+    fn inflate_attitude(&mut self, var_rad2: f64);
+    /// Borrows the whole filter (with its driver) for a checkpoint.
+    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_>
+    where
+        Self: Sized;
 }
 
 /// Object-safe interface every filter is used through.
@@ -239,20 +288,70 @@ pub trait AttitudeFilter: Send {
     fn time_s(&self) -> Option<f64>;
     /// Propagates to the measurement's time, then uses it.
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError>;
+    /// Propagates to `t_s` (no later than the next measurement's time) without using a measurement.
+    fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError>;
     fn estimate(&self) -> Estimate;
+    /// The filter's complete state, borrowed for a checkpoint ([`SavedFilter`] restores it).
+    fn saved(&self) -> SavedFilterRef<'_>;
+}
+
+/// A filter's complete state as a checkpoint holds it: the borrowed form writes, the owned form
+/// ([`SavedFilter`]) reads; both serialise identically.
+#[derive(serde::Serialize)]
+pub enum SavedFilterRef<'a> {
+    Mekf(&'a Driver<Mekf>),
+    Usque(&'a Driver<Usque>),
+    Qpf(&'a Driver<Qpf>),
+}
+
+/// A filter read back from a checkpoint.
+#[derive(serde::Deserialize)]
+pub enum SavedFilter {
+    Mekf(Driver<Mekf>),
+    Usque(Driver<Usque>),
+    Qpf(Driver<Qpf>),
+}
+
+impl SavedFilter {
+    /// The filter behind the shared interface, working buffers re-allocated.
+    pub fn into_filter(self) -> Box<dyn AttitudeFilter> {
+        match self {
+            SavedFilter::Mekf(d) => Box::new(d),
+            SavedFilter::Usque(d) => Box::new(d),
+            SavedFilter::Qpf(mut d) => {
+                d.core.reallocate();
+                Box::new(d)
+            }
+        }
+    }
 }
 
 /// Measurement times closer than this (s) are the same instant.
 pub const SAME_INSTANT_S: f64 = 1e-9;
 
 /// Holds the time and the last gyro rate, and drives a [`FilterCore`].
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Driver<F: FilterCore> {
     core: F,
     t_s: Option<f64>,
     /// The rate measured by the last gyro sample, held until the next. Before the first sample the
     /// filter propagates with its bias estimate only (zero estimated rate) and its process noise.
     omega_meas_rad_s: Option<Vector3<f64>>,
+    /// Time of the last gyro sample, and the gyro's usual interval (a running mean that ignores
+    /// gaps; the held sample's noise covers one such interval).
+    last_gyro_t_s: Option<f64>,
+    last_gyro_dt_s: f64,
+    gyro_intervals: u64,
+    gap: GapModel,
+    /// ARW of the gyro model, for the held sample's noise during a gap.
+    sigma_v: f64,
+    gyro_gaps: u64,
 }
+
+/// The interval assumed for the first gyro sample's noise, s.
+const FIRST_GYRO_INTERVAL_S: f64 = 0.1;
+/// A gap is this many usual gyro intervals without a sample (and at least `GapModel::after_s`).
+pub const GAP_INTERVALS: f64 = 3.0;
 
 impl<F: FilterCore> Driver<F> {
     pub fn new(core: F, t0_s: Option<f64>) -> Self {
@@ -260,11 +359,34 @@ impl<F: FilterCore> Driver<F> {
             core,
             t_s: t0_s,
             omega_meas_rad_s: None,
+            last_gyro_t_s: None,
+            last_gyro_dt_s: FIRST_GYRO_INTERVAL_S,
+            gyro_intervals: 0,
+            gap: GapModel {
+                after_s: f64::INFINITY,
+                accel_sigma_rad_s2: 0.0,
+            },
+            sigma_v: 0.0,
+            gyro_gaps: 0,
         }
+    }
+
+    /// With the gap model of `config`.
+    pub fn with_gap(mut self, gap: GapModel, gyro: &GyroNoise) -> Self {
+        self.gap = gap;
+        self.sigma_v = gyro.sigma_v;
+        self
     }
 
     pub fn core(&self) -> &F {
         &self.core
+    }
+
+    /// Time since the last gyro sample when a gap is in progress at `t_s`.
+    fn gap_at(&self, t_s: f64) -> Option<f64> {
+        let tg = self.last_gyro_t_s?;
+        let tau = t_s - tg;
+        (tau > self.gap.after_s.max(GAP_INTERVALS * self.last_gyro_dt_s)).then_some(tau)
     }
 
     fn propagate_to(&mut self, t_s: f64) -> Result<(), FilterError> {
@@ -286,7 +408,29 @@ impl<F: FilterCore> Driver<F> {
                 Some(w) => w,
                 None => self.core.bias_rad_s(),
             };
+            // Inflation of a gyro gap over [now, t_s], counted from the last sample once the gap has
+            // begun (so the whole gap's growth is added, not only the part after the threshold).
+            let inflation = self.gap_at(t_s).map(|tau2| {
+                let before = self.gap_at(now);
+                let v = |tau: f64| self.gap.variance(tau, self.sigma_v, self.last_gyro_dt_s);
+                (v(tau2) - v(before.unwrap_or(0.0)), before.is_none())
+            });
+            if let Some((var, _)) = inflation {
+                if !(var.is_finite() && var >= 0.0) {
+                    return Err(FilterError::NonFinite {
+                        step: "gyro-gap inflation",
+                    });
+                }
+            }
+            // A failed propagation leaves the filter as it was (the core's contract); the inflation,
+            // checked finite above, cannot fail.
             self.core.propagate(&omega, dt)?;
+            if let Some((var, started)) = inflation {
+                self.core.inflate_attitude(var);
+                if started {
+                    self.gyro_gaps += 1;
+                }
+            }
             self.t_s = Some(t_s);
         }
         Ok(())
@@ -342,6 +486,18 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
         self.propagate_to(measurement.t_s())?;
         match measurement {
             Measurement::Gyro(g) => {
+                if let Some(tg) = self.last_gyro_t_s {
+                    let dt = g.t_s - tg;
+                    if dt > SAME_INSTANT_S {
+                        if self.gyro_intervals == 0 {
+                            self.last_gyro_dt_s = dt;
+                        } else if dt <= GAP_INTERVALS * self.last_gyro_dt_s {
+                            self.last_gyro_dt_s += 0.1 * (dt - self.last_gyro_dt_s);
+                        }
+                        self.gyro_intervals += 1;
+                    }
+                }
+                self.last_gyro_t_s = Some(g.t_s);
                 self.omega_meas_rad_s = Some(g.omega_body_rad_s);
                 Ok(())
             }
@@ -350,10 +506,21 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
         }
     }
 
+    fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError> {
+        check_finite([t_s], "time")?;
+        self.propagate_to(t_s)
+    }
+
     fn estimate(&self) -> Estimate {
         let mut e = self.core.estimate();
         e.t_s = self.t_s.unwrap_or(0.0);
+        e.diagnostics.gyro_gap_s = self.t_s.and_then(|t| self.gap_at(t));
+        e.diagnostics.gyro_gaps = self.gyro_gaps;
         e
+    }
+
+    fn saved(&self) -> SavedFilterRef<'_> {
+        F::saved(self)
     }
 }
 
@@ -364,18 +531,17 @@ pub fn build_filter(
     seed: u64,
 ) -> Result<Box<dyn AttitudeFilter>, FilterError> {
     match config.spec.kind {
-        FilterKind::Mekf => Ok(Box::new(Driver::new(
-            Mekf::new(config, initial)?,
-            initial.t_s,
-        ))),
-        FilterKind::Usque => Ok(Box::new(Driver::new(
-            Usque::new(config, initial, config.usque)?,
-            initial.t_s,
-        ))),
-        FilterKind::Qpf => Ok(Box::new(Driver::new(
-            Qpf::new(config, initial, config.qpf, seed)?,
-            initial.t_s,
-        ))),
+        FilterKind::Mekf => Ok(Box::new(
+            Driver::new(Mekf::new(config, initial)?, initial.t_s).with_gap(config.gap, &config.gyro),
+        )),
+        FilterKind::Usque => Ok(Box::new(
+            Driver::new(Usque::new(config, initial, config.usque)?, initial.t_s)
+                .with_gap(config.gap, &config.gyro),
+        )),
+        FilterKind::Qpf => Ok(Box::new(
+            Driver::new(Qpf::new(config, initial, config.qpf, seed)?, initial.t_s)
+                .with_gap(config.gap, &config.gyro),
+        )),
     }
 }
 

@@ -28,8 +28,8 @@
 //! and falling back there measured worse (ALGORITHMS.md §6).
 
 use super::{
-    Diagnostics, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind, FilterSpec,
-    InitialState,
+    Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind,
+    FilterSpec, InitialState, SavedFilterRef,
 };
 use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
@@ -42,14 +42,14 @@ use rand_distr::{Beta, Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Regularisation kernel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Kernel {
     Gaussian,
     Epanechnikov,
 }
 
 /// QPF tuning. Defaults are the values that measured well (ALGORITHMS.md §5).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct QpfOptions {
     pub kernel: Kernel,
     /// Scale on the optimal bandwidth `h_opt = A N^{−1/(n+4)}`; 1–2 work with the shrinkage kernel.
@@ -108,7 +108,7 @@ impl Kernel {
 }
 
 /// The particle cloud, structure of arrays (the layout the per-particle loops vectorise over).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 struct Cloud {
     qx: Vec<f64>,
     qy: Vec<f64>,
@@ -227,21 +227,28 @@ fn components(q: &Quaternion) -> [f64; 4] {
 }
 
 /// The quaternion particle filter.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Qpf {
     fiducial: Fiducial,
     options: QpfOptions,
     gyro: GyroNoise,
     cloud: Cloud,
     /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update back.
+    /// (Working buffers are not part of a checkpoint: [`Qpf::reallocate`] sizes them after a restore.)
+    #[serde(skip)]
     scratch: Cloud,
+    #[serde(skip)]
     backup: Cloud,
+    #[serde(skip)]
     log_lik: Vec<f64>,
     /// Per-observation constants of the current update (reused buffer).
+    #[serde(skip)]
     obs_terms: Vec<[f64; 7]>,
+    #[serde(skip)]
     resample_index: Vec<usize>,
     /// Local states `[δp; β − β_ref]` of every particle about the fiducial of the last
     /// `locals_and_moments` (reused by the regularisation that may follow).
+    #[serde(skip)]
     local: [Vec<f64>; 6],
     /// The previous estimate propagated with `ω̃ − β̂` (seed Eq. 1): the `propagated` fiducial, the sign
     /// reference of the average, and the fallback when the average is undecidable.
@@ -257,6 +264,17 @@ pub struct Qpf {
 }
 
 impl Qpf {
+    /// Sizes the working buffers for the cloud (after a restore from a checkpoint, which omits them).
+    pub fn reallocate(&mut self) {
+        let n = self.cloud.w.len();
+        self.scratch = self.cloud.clone();
+        self.backup = self.cloud.clone();
+        self.log_lik = vec![0.0; n];
+        self.obs_terms = Vec::with_capacity(16);
+        self.resample_index = vec![0; n];
+        self.local = std::array::from_fn(|_| vec![0.0; n]);
+    }
+
     pub fn new(
         config: &FilterConfig,
         initial: &InitialState,
@@ -829,6 +847,25 @@ impl FilterCore for Qpf {
 
     fn bias_rad_s(&self) -> Vector3<f64> {
         self.beta_hat
+    }
+
+    /// Jitters every particle's attitude by an independent `N(0, var_rad2 I)` rotation vector.
+    fn inflate_attitude(&mut self, var_rad2: f64) {
+        if var_rad2 <= 0.0 {
+            return;
+        }
+        let sigma = var_rad2.sqrt();
+        for i in 0..self.cloud.len() {
+            let (q, b) = (self.cloud.q(i), self.cloud.beta(i));
+            let dalpha = normal3(&mut self.rng) * sigma;
+            self.cloud
+                .set(i, &Quaternion::from_rotation_vector(&dalpha).compose(&q), &b);
+        }
+        self.stale = true;
+    }
+
+    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
+        SavedFilterRef::Qpf(driver)
     }
 
     fn estimate(&self) -> Estimate {

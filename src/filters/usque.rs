@@ -37,8 +37,8 @@
 //! `a = 1, f = 4`, `k = 1` and this changes nothing.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Estimate, Fiducial, FilterConfig, FilterCore, FilterError,
-    FilterKind, FilterSpec, InitialState,
+    is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError,
+    FilterKind, FilterSpec, InitialState, SavedFilterRef,
 };
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::sensors::{GyroNoise, VectorObservation};
@@ -50,7 +50,7 @@ pub const N_STATE: usize = 6;
 pub const N_SIGMA: usize = 2 * N_STATE + 1;
 
 /// USQUE settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UsqueOptions {
     /// The local attitude-error chart. Default `a = 1, f = 4` ([`Grp::USQUE`]).
     pub grp: Grp,
@@ -108,7 +108,7 @@ pub fn process_noise_bar(gyro: &GyroNoise, dt_s: f64) -> Matrix6<f64> {
 }
 
 /// Sigma points kept from a propagation for the next update.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 struct SigmaPoints {
     /// The global quaternions `q⁻(i)`.
     q: [Quaternion; N_SIGMA],
@@ -117,7 +117,7 @@ struct SigmaPoints {
 }
 
 /// The USQUE state.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Usque {
     gyro: GyroNoise,
     options: UsqueOptions,
@@ -508,6 +508,20 @@ impl FilterCore for Usque {
     }
 
     /// `q̂ = GRP⁻¹(δp̂) ⊗ q_ref`, `β̂`, and `J P J` with `J = diag(k, k, k, 1, 1, 1)`, `δα ≈ k δp`.
+    /// In the filter's units (`δα ≈ k δp`); the kept sigma points no longer describe the inflated
+    /// distribution, so the next update redraws them.
+    fn inflate_attitude(&mut self, var_rad2: f64) {
+        let k = self.options.grp.small_angle_factor();
+        for i in 0..3 {
+            self.p[(i, i)] += var_rad2 / (k * k);
+        }
+        self.sigma = None;
+    }
+
+    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
+        SavedFilterRef::Usque(driver)
+    }
+
     fn estimate(&self) -> Estimate {
         let k = self.options.grp.small_angle_factor();
         let j = Matrix6::from_diagonal(&Vector6::new(k, k, k, 1.0, 1.0, 1.0));

@@ -14,14 +14,14 @@ pub use vector::{MagnetometerModel, StarCamera, SunSensor};
 use nalgebra::Vector3;
 
 /// One gyro sample: the measured body rate `ω̃` valid from `t_s` until the next sample (zero-order hold).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GyroSample {
     pub t_s: f64,
     pub omega_body_rad_s: Vector3<f64>,
 }
 
 /// One vector observation `b̃ = A(q) r + v`, `v ~ N(0, σ² I₃)`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VectorObservation {
     /// Measured in the body frame.
     pub body: Vector3<f64>,
@@ -34,14 +34,14 @@ pub struct VectorObservation {
 }
 
 /// The vector observations taken at one instant.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ObservationSet {
     pub t_s: f64,
     pub observations: Vec<VectorObservation>,
 }
 
 /// A time-stamped input to a filter.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Measurement {
     Gyro(GyroSample),
     Vectors(ObservationSet),

@@ -4,8 +4,9 @@
 
 use crate::attitude::Grp;
 use crate::filters::{
-    Fiducial, FilterConfig, FilterKind, FilterSpec, Kernel, QpfOptions, UsqueOptions,
+    Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, Kernel, QpfOptions, UsqueOptions,
 };
+use crate::study::runner::chi_square_quantile;
 use crate::sensors::GyroNoise;
 use crate::wire::{validate_vehicle_id, InputLimits};
 use nalgebra::Vector3;
@@ -46,6 +47,11 @@ struct RawService {
     vehicles: BTreeMap<String, RawFilterOverride>,
     limits: RawLimits,
     workers: usize,
+    time: RawTime,
+    gate: RawGate,
+    sensors: BTreeMap<String, RawSensor>,
+    health: RawHealth,
+    persistence: RawPersistence,
 }
 
 impl Default for RawService {
@@ -56,6 +62,98 @@ impl Default for RawService {
             vehicles: BTreeMap::new(),
             limits: RawLimits::default(),
             workers: 0,
+            time: RawTime::default(),
+            gate: RawGate::default(),
+            sensors: BTreeMap::new(),
+            health: RawHealth::default(),
+            persistence: RawPersistence::default(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawTime {
+    reorder_window_s: f64,
+    max_jump_s: f64,
+}
+
+impl Default for RawTime {
+    fn default() -> Self {
+        RawTime {
+            reorder_window_s: 0.2,
+            max_jump_s: 3600.0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawGate {
+    probability: f64,
+    reinit_after: u32,
+}
+
+impl Default for RawGate {
+    fn default() -> Self {
+        RawGate {
+            probability: 0.9999,
+            reinit_after: 10,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawSensor {
+    gate_probability: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawHealth {
+    reinit_after_failures: u32,
+    reinit_sigma_factor: f64,
+}
+
+impl Default for RawHealth {
+    fn default() -> Self {
+        RawHealth {
+            reinit_after_failures: 3,
+            reinit_sigma_factor: 10.0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawPersistence {
+    state_dir: Option<String>,
+    checkpoint_interval_s: f64,
+}
+
+impl Default for RawPersistence {
+    fn default() -> Self {
+        RawPersistence {
+            state_dir: None,
+            checkpoint_interval_s: 10.0,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize, Clone)]
+#[serde(deny_unknown_fields, default)]
+struct RawGap {
+    after_s: f64,
+    accel_sigma_rad_s2: f64,
+}
+
+impl Default for RawGap {
+    fn default() -> Self {
+        let g = GapModel::default();
+        RawGap {
+            after_s: g.after_s,
+            accel_sigma_rad_s2: g.accel_sigma_rad_s2,
         }
     }
 }
@@ -72,6 +170,7 @@ struct RawFilter {
     init_bias_sigma_deg_hr: f64,
     qpf: RawQpf,
     usque: RawUsque,
+    gap: RawGap,
 }
 
 impl Default for RawFilter {
@@ -87,6 +186,7 @@ impl Default for RawFilter {
             init_bias_sigma_deg_hr: 10.0,
             qpf: RawQpf::default(),
             usque: RawUsque::default(),
+            gap: RawGap::default(),
         }
     }
 }
@@ -155,6 +255,8 @@ struct RawLimits {
     max_payload_bytes: usize,
     max_batch: usize,
     max_observations: usize,
+    max_rate_rad_s: f64,
+    max_sensors_per_vehicle: usize,
 }
 
 impl Default for RawLimits {
@@ -166,6 +268,8 @@ impl Default for RawLimits {
             max_payload_bytes: l.max_payload_bytes,
             max_batch: l.max_batch,
             max_observations: l.max_observations,
+            max_rate_rad_s: l.max_rate_rad_s,
+            max_sensors_per_vehicle: 16,
         }
     }
 }
@@ -174,7 +278,7 @@ impl Default for RawLimits {
 // Validated.
 
 /// How a vehicle's filter starts when no attitude is given.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum InitMode {
     /// From the first vector-observation set with two or more non-parallel vectors (q-method).
     Vectors,
@@ -183,7 +287,7 @@ pub enum InitMode {
 }
 
 /// Everything needed to create one vehicle's filter.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VehicleFilterConfig {
     pub filter: FilterConfig,
     pub init: InitMode,
@@ -196,6 +300,47 @@ pub struct Limits {
     pub max_vehicles: usize,
     pub queue_per_vehicle: usize,
     pub input: InputLimits,
+    /// Distinct sensor names counted per vehicle; further names are counted as `other`.
+    pub max_sensors_per_vehicle: usize,
+}
+
+/// How every vehicle treats time, outliers and failures (service-wide; not part of a checkpoint).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Policy {
+    /// A sample waits at most this long (in sample time, and in wall time) for the vehicle's other
+    /// stream to reach its time; 0 processes every sample on arrival.
+    pub reorder_window_s: f64,
+    /// A sample further ahead of the vehicle's newest time than this is refused (`time_jump`).
+    pub max_jump_s: f64,
+    /// χ² threshold (3 degrees of freedom) of the innovation gate, `None` = off.
+    pub gate_threshold: Option<f64>,
+    /// Per-sensor thresholds overriding `gate_threshold` (`None` = that sensor is not gated).
+    pub sensor_gate: BTreeMap<String, Option<f64>>,
+    /// Consecutive fully gated vector sets before the vehicle re-initialises (0 = never).
+    pub gate_reinit_after: u32,
+    /// Consecutive failed filter steps before the vehicle re-initialises from its last good estimate.
+    pub reinit_after_failures: u32,
+    /// Factor on the last good estimate's 1σ when re-initialising from it.
+    pub reinit_sigma_factor: f64,
+    pub max_sensors_per_vehicle: usize,
+}
+
+impl Policy {
+    /// The gate threshold of observations from `sensor`.
+    pub fn gate_for(&self, sensor: Option<&str>) -> Option<f64> {
+        match sensor.and_then(|s| self.sensor_gate.get(s)) {
+            Some(t) => *t,
+            None => self.gate_threshold,
+        }
+    }
+}
+
+/// Checkpoints of every vehicle's complete state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Persistence {
+    /// Directory of the checkpoint files; `None` = no persistence.
+    pub state_dir: Option<std::path::PathBuf>,
+    pub checkpoint_interval_s: f64,
 }
 
 /// The validated `service` section.
@@ -208,6 +353,8 @@ pub struct ServiceConfig {
     pub limits: Limits,
     /// Filter worker threads (the machine's cores when 0 in the file).
     pub workers: usize,
+    pub policy: Policy,
+    pub persistence: Persistence,
 }
 
 impl ServiceConfig {
@@ -370,6 +517,16 @@ fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, Str
         grp: Grp::new(u.a, u.f),
         lambda: u.lambda,
     };
+    let g = &raw.gap;
+    if !(g.after_s > 0.0 && g.accel_sigma_rad_s2 >= 0.0 && g.accel_sigma_rad_s2.is_finite()) {
+        return Err(format!(
+            "{at}.gap: need after_s > 0 and a finite accel_sigma_rad_s2 >= 0"
+        ));
+    }
+    filter.gap = GapModel {
+        after_s: g.after_s,
+        accel_sigma_rad_s2: g.accel_sigma_rad_s2,
+    };
     Ok(VehicleFilterConfig {
         filter,
         init,
@@ -422,6 +579,59 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
             return Err(format!("service.limits.{name} must be at least 1"));
         }
     }
+    if !(l.max_rate_rad_s > 0.0 && l.max_rate_rad_s.is_finite()) {
+        return Err("service.limits.max_rate_rad_s must be positive".into());
+    }
+    if l.max_sensors_per_vehicle == 0 {
+        return Err("service.limits.max_sensors_per_vehicle must be at least 1".into());
+    }
+    let t = &raw.time;
+    if !(t.reorder_window_s >= 0.0 && t.reorder_window_s <= 60.0) {
+        return Err("service.time.reorder_window_s must be in [0, 60]".into());
+    }
+    if !(t.max_jump_s > 0.0) {
+        return Err("service.time.max_jump_s must be positive".into());
+    }
+    let threshold = |p: f64, at: &str| -> Result<Option<f64>, String> {
+        if p == 0.0 {
+            Ok(None)
+        } else if p > 0.0 && p < 1.0 {
+            Ok(Some(chi_square_quantile(3.0, p)))
+        } else {
+            Err(format!("{at} must be 0 (off) or in (0, 1), got {p}"))
+        }
+    };
+    let mut sensor_gate = BTreeMap::new();
+    for (name, s) in &raw.sensors {
+        if let Some(p) = s.gate_probability {
+            sensor_gate.insert(
+                name.clone(),
+                threshold(p, &format!("service.sensors.{name}.gate_probability"))?,
+            );
+        }
+    }
+    let h = &raw.health;
+    if !(h.reinit_sigma_factor >= 1.0 && h.reinit_sigma_factor.is_finite()) {
+        return Err("service.health.reinit_sigma_factor must be at least 1".into());
+    }
+    let pz = &raw.persistence;
+    if !(pz.checkpoint_interval_s > 0.0 && pz.checkpoint_interval_s.is_finite()) {
+        return Err("service.persistence.checkpoint_interval_s must be positive".into());
+    }
+    let policy = Policy {
+        reorder_window_s: t.reorder_window_s,
+        max_jump_s: t.max_jump_s,
+        gate_threshold: threshold(raw.gate.probability, "service.gate.probability")?,
+        sensor_gate,
+        gate_reinit_after: raw.gate.reinit_after,
+        reinit_after_failures: h.reinit_after_failures.max(1),
+        reinit_sigma_factor: h.reinit_sigma_factor,
+        max_sensors_per_vehicle: l.max_sensors_per_vehicle,
+    };
+    let persistence = Persistence {
+        state_dir: pz.state_dir.as_ref().map(std::path::PathBuf::from),
+        checkpoint_interval_s: pz.checkpoint_interval_s,
+    };
     let workers = if raw.workers == 0 {
         std::thread::available_parallelism()
             .map(|n| n.get())
@@ -440,8 +650,12 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
                 max_payload_bytes: l.max_payload_bytes,
                 max_batch: l.max_batch,
                 max_observations: l.max_observations,
+                max_rate_rad_s: l.max_rate_rad_s,
             },
+            max_sensors_per_vehicle: l.max_sensors_per_vehicle,
         },
         workers,
+        policy,
+        persistence,
     })
 }

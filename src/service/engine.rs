@@ -10,14 +10,16 @@
 
 use super::config::ServiceConfig;
 use super::keys::{Keys, Leaf};
-use super::vehicle::{Outcome, VehicleState};
+use super::persist::{self, SavedCounters};
+use super::vehicle::{Event, Stream, VehicleState};
 use crate::sensors::Measurement;
 use crate::wire::{
-    decode_batch, validate_vehicle_id, AttitudeMsg, CovarianceMsg, EstimateMsg, GyroMsg, HealthMsg,
-    RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
+    decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
+    EstimateMsg, GyroMsg, HealthMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg,
+    VehicleInfoMsg,
 };
 use std::collections::{BTreeMap, HashMap, VecDeque};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
 
@@ -38,6 +40,8 @@ enum Input {
         ResetMsg,
         tokio::sync::oneshot::Sender<Result<ResetReplyMsg, Rejection>>,
     ),
+    /// Release what the reorder window holds beyond its wall-time limit.
+    Tick,
 }
 
 /// Service-wide counters (atomics: read by queries without locks).
@@ -50,6 +54,11 @@ pub struct Counters {
     /// Samples the subscriber callback could not hand over (the ingest channel was full).
     pub ingest_overflow: AtomicU64,
     rejected: [AtomicU64; RejectCode::ALL.len()],
+    /// Checkpoints: vehicles restored and files skipped at start; files written and failed writes.
+    pub restored: AtomicU64,
+    pub skipped: AtomicU64,
+    pub written: AtomicU64,
+    pub write_failed: AtomicU64,
 }
 
 impl Counters {
@@ -82,22 +91,64 @@ pub struct Vehicle {
     rejected: AtomicU64,
     /// This vehicle's refused inputs by code, reported in its estimates' diagnostics.
     rejected_by_code: Mutex<BTreeMap<String, u64>>,
+    /// Samples in the reorder window, and whether a tick is already queued.
+    held: AtomicUsize,
+    tick_queued: AtomicBool,
+    /// Gate, re-initialisation and rollback totals (for `P/@/health`).
+    gated: AtomicU64,
+    reinits: AtomicU64,
+    rollbacks: AtomicU64,
+    /// Changed since its last checkpoint.
+    dirty: AtomicBool,
 }
 
 impl Vehicle {
-    fn new(id: &str, state: VehicleState) -> Self {
+    fn new(id: &str, state: VehicleState, counters: SavedCounters) -> Self {
         let info = info_of(&state);
-        Vehicle {
+        let snapshot = state.estimate().map(Arc::new);
+        let v = Vehicle {
             id: id.to_string(),
             inbox: Mutex::new(VecDeque::new()),
             scheduled: AtomicBool::new(false),
-            state: Mutex::new(state),
-            snapshot: RwLock::new(None),
+            snapshot: RwLock::new(snapshot),
             info: RwLock::new(info),
-            received: AtomicU64::new(0),
-            processed: AtomicU64::new(0),
-            rejected: AtomicU64::new(0),
-            rejected_by_code: Mutex::new(BTreeMap::new()),
+            received: AtomicU64::new(counters.received),
+            processed: AtomicU64::new(counters.processed),
+            rejected: AtomicU64::new(counters.rejected),
+            rejected_by_code: Mutex::new(counters.rejected_by_code),
+            held: AtomicUsize::new(0),
+            tick_queued: AtomicBool::new(false),
+            gated: AtomicU64::new(0),
+            reinits: AtomicU64::new(0),
+            rollbacks: AtomicU64::new(0),
+            dirty: AtomicBool::new(false),
+            state: Mutex::new(state),
+        };
+        {
+            let state = v.state.lock().unwrap_or_else(|e| e.into_inner());
+            v.refresh_totals(&state);
+        }
+        v
+    }
+
+    fn refresh_totals(&self, state: &VehicleState) {
+        let t = state.totals();
+        self.held.store(state.held(), Ordering::Relaxed);
+        self.gated.store(t.gated, Ordering::Relaxed);
+        self.reinits.store(t.reinits, Ordering::Relaxed);
+        self.rollbacks.store(t.rollbacks, Ordering::Relaxed);
+    }
+
+    fn counters(&self) -> SavedCounters {
+        SavedCounters {
+            received: self.received.load(Ordering::Relaxed),
+            processed: self.processed.load(Ordering::Relaxed),
+            rejected: self.rejected.load(Ordering::Relaxed),
+            rejected_by_code: self
+                .rejected_by_code
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone(),
         }
     }
 
@@ -155,6 +206,8 @@ pub struct Engine {
     /// `None` tells a worker to stop.
     work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
     sink: Sink,
+    /// Serialises checkpoint writers (the housekeeping thread and the shutdown).
+    checkpointing: Mutex<()>,
 }
 
 /// The running threads of an engine.
@@ -163,13 +216,19 @@ pub struct EngineThreads {
     pub ingest: crossbeam_channel::Sender<Option<Inbound>>,
     dispatcher: std::thread::JoinHandle<()>,
     workers: Vec<std::thread::JoinHandle<()>>,
+    housekeeping: std::thread::JoinHandle<()>,
+    stop_housekeeping: crossbeam_channel::Sender<()>,
     engine: Arc<Engine>,
 }
 
 impl EngineThreads {
     /// Stops the dispatcher after the inputs already received, then the workers after the vehicles
-    /// already scheduled, then processes whatever is still in any inbox, so nothing accepted is lost.
+    /// already scheduled, then processes whatever is still in any inbox, so nothing accepted is lost,
+    /// and writes a last checkpoint of every vehicle that changed (samples still in a reorder window
+    /// are part of it).
     pub fn shutdown(self) {
+        let _ = self.stop_housekeeping.send(());
+        let _ = self.housekeeping.join();
         let _ = self.ingest.send(None);
         let _ = self.dispatcher.join();
         for _ in &self.workers {
@@ -183,15 +242,25 @@ impl EngineThreads {
                 self.engine.work(&v);
             }
         }
+        self.engine.checkpoint_all();
     }
 }
+
+/// How often the housekeeping thread releases reorder windows by wall time, s.
+const TICK_S: f64 = 0.01;
 
 /// Capacity of the channel between the subscriber callbacks and the dispatcher.
 pub const INGEST_CAPACITY: usize = 1 << 16;
 
 impl Engine {
-    /// Starts the dispatcher and `config.workers` worker threads.
-    pub fn start(config: ServiceConfig, sink: Sink) -> (Arc<Engine>, EngineThreads) {
+    /// Restores the vehicles checkpointed in the state directory (if one is configured; it is
+    /// created when missing), then starts the dispatcher, `config.workers` worker threads and the
+    /// housekeeping thread (reorder-window ticks, periodic checkpoints). Only an unusable state
+    /// directory is an error; a bad checkpoint file is reported and skipped.
+    pub fn start(
+        config: ServiceConfig,
+        sink: Sink,
+    ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
         let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Inbound>>(INGEST_CAPACITY);
         let workers = config.workers.max(1);
@@ -203,7 +272,9 @@ impl Engine {
             vehicles: RwLock::new(HashMap::new()),
             work_tx,
             sink,
+            checkpointing: Mutex::new(()),
         });
+        engine.restore()?;
         let dispatcher = {
             let engine = engine.clone();
             std::thread::Builder::new()
@@ -229,15 +300,127 @@ impl Engine {
                     .expect("spawn a worker thread")
             })
             .collect();
-        (
+        let (stop_housekeeping, stop_rx) = crossbeam_channel::bounded::<()>(1);
+        let housekeeping = {
+            let engine = engine.clone();
+            std::thread::Builder::new()
+                .name("attitude-housekeeping".into())
+                .spawn(move || engine.housekeeping(stop_rx))
+                .expect("spawn the housekeeping thread")
+        };
+        Ok((
             engine.clone(),
             EngineThreads {
                 ingest: ingest_tx,
                 dispatcher,
                 workers,
+                housekeeping,
+                stop_housekeeping,
                 engine,
             },
-        )
+        ))
+    }
+
+    fn now_s(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
+    /// Loads every checkpoint of the state directory.
+    fn restore(&self) -> Result<(), persist::CheckpointError> {
+        let Some(dir) = &self.config.persistence.state_dir else {
+            return Ok(());
+        };
+        std::fs::create_dir_all(dir).map_err(|e| persist::CheckpointError::Io {
+            path: dir.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let (good, bad) = persist::load_dir(dir)?;
+        for e in &bad {
+            tracing::error!(error = %e, "checkpoint skipped");
+        }
+        self.counters
+            .skipped
+            .fetch_add(bad.len() as u64, Ordering::Relaxed);
+        let mut map = self.vehicles.write().unwrap_or_else(|e| e.into_inner());
+        for c in good {
+            let id = c.state.id().to_string();
+            if map.len() >= self.config.limits.max_vehicles {
+                tracing::error!(vehicle = %id, "checkpoint skipped: limits.max_vehicles reached");
+                self.counters.skipped.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            if validate_vehicle_id(&id).is_err() {
+                self.counters.skipped.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            map.insert(id.clone(), Arc::new(Vehicle::new(&id, c.state, c.counters)));
+            self.counters.restored.fetch_add(1, Ordering::Relaxed);
+        }
+        tracing::info!(
+            dir = %dir.display(),
+            restored = map.len(),
+            skipped = bad.len(),
+            "vehicles restored from checkpoints"
+        );
+        Ok(())
+    }
+
+    /// Ticks the reorder windows that hold samples, and checkpoints every interval, until stopped.
+    fn housekeeping(&self, stop: crossbeam_channel::Receiver<()>) {
+        let interval = self.config.persistence.checkpoint_interval_s;
+        let mut next_checkpoint = self.now_s() + interval;
+        let tick = std::time::Duration::from_secs_f64(TICK_S);
+        loop {
+            match stop.recv_timeout(tick) {
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
+                _ => return,
+            }
+            for v in self.vehicles() {
+                if v.held.load(Ordering::Relaxed) > 0 && !v.tick_queued.swap(true, Ordering::AcqRel)
+                {
+                    v.inbox
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push_back(Input::Tick);
+                    self.schedule(&v);
+                }
+            }
+            if self.now_s() >= next_checkpoint {
+                self.checkpoint_all();
+                next_checkpoint = self.now_s() + interval;
+            }
+        }
+    }
+
+    /// Writes a checkpoint of every vehicle that changed since its last one.
+    pub fn checkpoint_all(&self) {
+        let Some(dir) = &self.config.persistence.state_dir else {
+            return;
+        };
+        let _one_writer = self.checkpointing.lock().unwrap_or_else(|e| e.into_inner());
+        for v in self.vehicles() {
+            if !v.dirty.swap(false, Ordering::AcqRel) {
+                continue;
+            }
+            // Encoded under the vehicle's lock (a consistent state), written outside it.
+            let bytes = {
+                let state = v.state.lock().unwrap_or_else(|e| e.into_inner());
+                persist::encode(&state, &v.counters())
+            };
+            let result = bytes
+                .map_err(|m| m.to_string())
+                .and_then(|b| persist::write_atomic(dir, &v.id, &b).map_err(|e| e.to_string()));
+            match result {
+                Ok(()) => {
+                    self.counters.written.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(e) => {
+                    self.counters.write_failed.fetch_add(1, Ordering::Relaxed);
+                    v.dirty.store(true, Ordering::Release);
+                    tracing::error!(vehicle = %v.id, error = %e, "checkpoint failed");
+                }
+            }
+        }
     }
 
     pub fn uptime_s(&self) -> f64 {
@@ -277,7 +460,7 @@ impl Engine {
             ));
         }
         let state = VehicleState::new(id, self.config.filter_for(id).clone());
-        let v = Arc::new(Vehicle::new(id, state));
+        let v = Arc::new(Vehicle::new(id, state, SavedCounters::default()));
         map.insert(id.to_string(), v.clone());
         tracing::info!(vehicle = id, "new vehicle");
         Ok(v)
@@ -313,7 +496,7 @@ impl Engine {
                     .iter()
                     .enumerate()
                     .map(|(i, g)| {
-                        g.to_domain()
+                        g.to_domain(limits)
                             .map(Measurement::Gyro)
                             .map_err(|e| at(i, items.len(), e))
                     })
@@ -383,7 +566,12 @@ impl Engine {
         if self.vehicle(vehicle).is_none() {
             // A refused reset must not create the vehicle: try it on a fresh state first.
             let config = self.config.filter_for(vehicle).clone();
-            VehicleState::new(vehicle, config.clone()).on_reset(&req, &config)?;
+            VehicleState::new(vehicle, config.clone()).on_reset(
+                &req,
+                &config,
+                &self.config.policy,
+                &mut Vec::new(),
+            )?;
         }
         let v = self.get_or_create(vehicle)?;
         let (tx, rx) = tokio::sync::oneshot::channel();
@@ -397,6 +585,8 @@ impl Engine {
 
     /// Drains a vehicle's inbox through its filter (a worker thread).
     fn work(&self, v: &Arc<Vehicle>) {
+        let policy = &self.config.policy;
+        let mut events = Vec::new();
         {
             let mut state = v.state.lock().unwrap_or_else(|e| e.into_inner());
             for _ in 0..TURN {
@@ -406,28 +596,29 @@ impl Engine {
                     .unwrap_or_else(|e| e.into_inner())
                     .pop_front();
                 let Some(input) = next else { break };
+                v.dirty.store(true, Ordering::Release);
+                let now = self.now_s();
                 match input {
                     Input::Measurement(m) => {
-                        let key_leaf = match m {
-                            Measurement::Gyro(_) => Leaf::Gyro,
-                            Measurement::Vectors(_) => Leaf::Vectors,
+                        let stream = match m {
+                            Measurement::Gyro(_) => Stream::Gyro,
+                            Measurement::Vectors(_) => Stream::Vectors,
                         };
-                        match state.on_measurement(m) {
-                            Ok(outcome) => {
-                                v.processed.fetch_add(1, Ordering::Relaxed);
-                                self.counters.processed.fetch_add(1, Ordering::Relaxed);
-                                if let Outcome::Estimate(e) = outcome {
-                                    // What a subscriber sees must agree with P/@/vehicles at once.
-                                    refresh_info(v, &state);
-                                    self.publish_estimate(v, e);
-                                }
-                            }
-                            Err(r) => self.reject(&v.id, &self.keys.vehicle(&v.id, key_leaf), &r),
+                        if let Err(r) = state.on_measurement(m, now, policy, &mut events) {
+                            self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
+                        self.handle(v, &state, &mut events);
+                    }
+                    Input::Tick => {
+                        v.tick_queued.store(false, Ordering::Release);
+                        state.on_tick(now, policy, &mut events);
+                        self.handle(v, &state, &mut events);
                     }
                     Input::Reset(req, reply) => {
                         let base = self.config.filter_for(&v.id).clone();
-                        let result = state.on_reset(&req, &base);
+                        let result = state.on_reset(&req, &base, policy, &mut events);
+                        // What the reorder window still held is used first.
+                        self.handle(v, &state, &mut events);
                         // (A refused reset is counted by the query handler that answers it.)
                         refresh_info(v, &state);
                         if let Ok(r) = &result {
@@ -442,11 +633,42 @@ impl Engine {
                 }
             }
             refresh_info(v, &state);
+            v.refresh_totals(&state);
         }
         v.scheduled.store(false, Ordering::Release);
         let pending = !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty();
         if pending {
             self.schedule(v);
+        }
+    }
+
+    fn stream_key(&self, vehicle: &str, stream: Stream) -> String {
+        self.keys.vehicle(
+            vehicle,
+            match stream {
+                Stream::Gyro => Leaf::Gyro,
+                Stream::Vectors => Leaf::Vectors,
+            },
+        )
+    }
+
+    /// Counts, refuses and publishes what the vehicle's samples produced.
+    fn handle(&self, v: &Arc<Vehicle>, state: &VehicleState, events: &mut Vec<Event>) {
+        for event in events.drain(..) {
+            match event {
+                Event::Processed(_) => {
+                    v.processed.fetch_add(1, Ordering::Relaxed);
+                    self.counters.processed.fetch_add(1, Ordering::Relaxed);
+                }
+                Event::Rejected(stream, r) => {
+                    self.reject(&v.id, &self.stream_key(&v.id, stream), &r)
+                }
+                Event::Estimate(e) => {
+                    // What a subscriber sees must agree with P/@/vehicles at once.
+                    refresh_info(v, state);
+                    self.publish_estimate(v, e);
+                }
+            }
         }
     }
 
@@ -497,6 +719,7 @@ impl Engine {
 
     pub fn health(&self) -> HealthMsg {
         let c = &self.counters;
+        let vehicles = self.vehicles();
         let mut rejected = c.rejected_by_code();
         let overflow = c.ingest_overflow.load(Ordering::Relaxed);
         if overflow > 0 {
@@ -506,12 +729,24 @@ impl Engine {
             status: "ok".into(),
             version: env!("CARGO_PKG_VERSION").into(),
             uptime_s: self.uptime_s(),
-            vehicles: self.vehicles.read().map(|m| m.len()).unwrap_or(0),
+            vehicles: vehicles.len(),
             received: c.received.load(Ordering::Relaxed),
             processed: c.processed.load(Ordering::Relaxed),
             estimates_published: c.estimates.load(Ordering::Relaxed),
             rejected,
             queries: c.queries.load(Ordering::Relaxed),
+            held: vehicles.iter().map(|v| v.held.load(Ordering::Relaxed) as u64).sum(),
+            gated: vehicles.iter().map(|v| v.gated.load(Ordering::Relaxed)).sum(),
+            reinits: vehicles.iter().map(|v| v.reinits.load(Ordering::Relaxed)).sum(),
+            rollbacks: vehicles.iter().map(|v| v.rollbacks.load(Ordering::Relaxed)).sum(),
+            checkpoints: self.config.persistence.state_dir.as_ref().map(|d| CheckpointHealthMsg {
+                state_dir: d.display().to_string(),
+                interval_s: self.config.persistence.checkpoint_interval_s,
+                restored: c.restored.load(Ordering::Relaxed),
+                skipped: c.skipped.load(Ordering::Relaxed),
+                written: c.written.load(Ordering::Relaxed),
+                failed: c.write_failed.load(Ordering::Relaxed),
+            }),
         }
     }
 }

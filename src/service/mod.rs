@@ -7,6 +7,7 @@
 pub mod config;
 pub mod engine;
 pub mod keys;
+pub mod persist;
 pub mod vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
@@ -29,6 +30,8 @@ use zenoh::Wait;
 pub enum ServiceError {
     #[error("zenoh: {0}")]
     Zenoh(String),
+    #[error("state directory: {0}")]
+    State(#[from] persist::CheckpointError),
 }
 
 fn zerr(e: impl std::fmt::Display) -> ServiceError {
@@ -59,7 +62,7 @@ pub async fn run(
             tracing::warn!(key, error = %e, "put failed");
         }
     });
-    let (engine, threads) = Engine::start(config, sink);
+    let (engine, threads) = Engine::start(config, sink)?;
     let keys = engine.keys.clone();
 
     let callback = {

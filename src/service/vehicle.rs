@@ -1,33 +1,114 @@
-//! One vehicle's filter and what happens to each input: a closed state machine, no I/O, no locks.
+//! One vehicle: the reorder window, the time checks, the innovation gate, the filter's health and the
+//! ways back (re-initialisation). A closed state machine without I/O or locks, serialisable whole (a
+//! checkpoint is this struct).
 //!
-//! `Initializing` (no filter yet: waiting for a vector set that determines the attitude, or for a
-//! reset that gives it) → `Tracking` (a filter behind the shared interface). Each input either
-//! changes the state and may produce an estimate, or is refused with a [`Rejection`] and changes
-//! nothing.
+//! An input first passes the time checks (duplicate, older than processed, jump) and is refused with
+//! a [`Rejection`] that changes nothing, or is accepted into the reorder window. Samples leave the
+//! window in time order once every stream of the vehicle has reached their time, or after the window
+//! (in sample time or in wall time), and only then reach the filter: `Initializing` (no filter yet:
+//! waiting for a vector set that determines the attitude, or a reset that gives it) → `Tracking`.
+//! What happens to released samples is reported as [`Event`]s.
 
-use super::config::{InitMode, VehicleFilterConfig};
-use crate::attitude::{q_method, Quaternion};
+use super::config::{InitMode, Policy, VehicleFilterConfig};
+use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
-    build_filter, AttitudeFilter, Fiducial, FilterError, FilterKind, FilterSpec, InitialState,
+    build_filter, is_spd, AttitudeFilter, Estimate, Fiducial, FilterError, FilterKind, FilterSpec,
+    InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
-use crate::sensors::{GyroSample, Measurement, ObservationSet};
-use crate::wire::{EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg};
-use nalgebra::Vector3;
+use crate::sensors::{GyroSample, Measurement, ObservationSet, VectorObservation};
+use crate::wire::{EstimateMsg, GateCountsMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, VecDeque};
 
 /// Attitude 1σ used by a reset that gives `q` without `sigma_deg`.
 pub const DEFAULT_RESET_SIGMA_DEG: f64 = 1.0;
+/// Accepted samples per stream remembered to recognise duplicates.
+const RECENT: usize = 16;
+/// Gate statistics of observations without a sensor name, and of names beyond the per-vehicle limit.
+const UNNAMED: &str = "unnamed";
+const OTHER: &str = "other";
+/// Smallest attitude 1σ after a re-initialisation from an estimate, rad (1°).
+const MIN_REINIT_SIGMA_RAD: f64 = 1.0 * std::f64::consts::PI / 180.0;
+/// Consistent samples beyond a time jump that re-anchor the vehicle's time.
+pub const JUMP_CONFIRMATIONS: u32 = 3;
 
-enum Slot {
-    Initializing {
-        /// The last gyro sample, whose rate is held when the filter starts.
-        last_gyro: Option<GyroSample>,
-    },
-    Tracking {
-        filter: Box<dyn AttitudeFilter>,
-    },
+/// The two input streams of a vehicle (they arrive on different keys and may be reordered).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Stream {
+    Gyro = 0,
+    Vectors = 1,
 }
 
-/// A vehicle's filter state.
+fn stream_of(m: &Measurement) -> Stream {
+    match m {
+        Measurement::Gyro(_) => Stream::Gyro,
+        Measurement::Vectors(_) => Stream::Vectors,
+    }
+}
+
+/// What happened to the samples released by an input.
+#[derive(Debug)]
+pub enum Event {
+    /// A sample reached the filter (or the initialisation) and was used.
+    Processed(Stream),
+    /// A released sample was refused by the filter (the filter is as it was before it).
+    Rejected(Stream, Rejection),
+    /// A new estimate to publish on `P/V/estimate`.
+    Estimate(EstimateMsg),
+}
+
+enum Slot {
+    Initializing,
+    Tracking(Box<dyn AttitudeFilter>),
+}
+
+// A checkpoint holds the filter itself: written borrowed, read back owned.
+impl Serialize for Slot {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let saved: Option<SavedFilterRef<'_>> = match self {
+            Slot::Initializing => None,
+            Slot::Tracking(f) => Some(f.saved()),
+        };
+        saved.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Slot {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match Option::<SavedFilter>::deserialize(d)? {
+            None => Slot::Initializing,
+            Some(f) => Slot::Tracking(f.into_filter()),
+        })
+    }
+}
+
+/// A sample in the reorder window.
+#[derive(Serialize, Deserialize)]
+struct Held {
+    t_s: f64,
+    /// Wall time it was accepted, s on the engine's clock (0 after a restore: released at once).
+    held_at_s: f64,
+    m: Measurement,
+}
+
+/// Samples beyond a time jump, waiting for confirmation.
+#[derive(Clone, Copy, Serialize, Deserialize)]
+struct JumpCandidate {
+    t_s: f64,
+    count: u32,
+}
+
+/// A vehicle's gate, re-initialisation and rollback counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Totals {
+    pub gated: u64,
+    pub reinits: u64,
+    pub rollbacks: u64,
+}
+
+/// A vehicle's complete state.
+#[derive(Serialize, Deserialize)]
 pub struct VehicleState {
     id: String,
     config: VehicleFilterConfig,
@@ -36,37 +117,77 @@ pub struct VehicleState {
     seq: u64,
     /// Filters created so far (derives each new filter's seed).
     generation: u64,
-    /// Time of the last measurement used, s.
+    /// Time of the last sample used, s.
     last_t: Option<f64>,
+    /// The last gyro sample used: its rate is held by a filter started or restarted later.
+    last_gyro: Option<GyroSample>,
+    /// The reorder window, sorted by time (arrival order among equal times).
+    held: VecDeque<Held>,
+    /// Newest time accepted per stream.
+    newest: [Option<f64>; 2],
+    /// `(t, fingerprint)` of recently accepted samples per stream.
+    recent: [VecDeque<(f64, u64)>; 2],
+    jump: Option<JumpCandidate>,
+    gate: BTreeMap<String, GateCountsMsg>,
+    consecutive_gated: u32,
+    consecutive_failures: u32,
+    rollbacks: u64,
+    reinits: BTreeMap<String, u64>,
+    /// The last estimate published (the point a health re-initialisation restarts from).
+    last_good: Option<Estimate>,
 }
 
-/// What an accepted input produced.
-pub enum Outcome {
-    /// Nothing to publish (a gyro sample, or a vector set while still initialising).
-    Quiet,
-    /// A new estimate to publish on `P/V/estimate`.
-    Estimate(EstimateMsg),
-}
-
-fn filter_error(e: FilterError) -> Rejection {
+fn filter_error(e: &FilterError) -> Rejection {
     match e {
         FilterError::OutOfOrder { .. } => Rejection::new(RejectCode::OutOfOrder, e.to_string()),
         FilterError::InvalidMeasurement(_) => Rejection::new(RejectCode::BadRequest, e.to_string()),
         _ => Rejection::new(
             RejectCode::FilterError,
-            format!("{e}; the filter is unchanged"),
+            format!("{e}; the filter was rolled back to its state before this input"),
         ),
     }
 }
 
-/// FNV-1a: a stable per-vehicle seed from its id.
-fn seed_of(id: &str, generation: u64) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in id.bytes().chain(generation.to_le_bytes()) {
+/// FNV-1a over bytes.
+fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
+    for b in bytes {
         h ^= b as u64;
         h = h.wrapping_mul(0x0100_0000_01b3);
     }
     h
+}
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// A stable per-vehicle seed from its id.
+fn seed_of(id: &str, generation: u64) -> u64 {
+    fnv(id.bytes().chain(generation.to_le_bytes()), FNV_OFFSET)
+}
+
+/// Identifies a sample's content (duplicate detection).
+fn fingerprint(m: &Measurement) -> u64 {
+    let bits = |v: &Vector3<f64>| {
+        v.iter()
+            .flat_map(|x| x.to_bits().to_le_bytes())
+            .collect::<Vec<u8>>()
+    };
+    match m {
+        Measurement::Gyro(g) => fnv(bits(&g.omega_body_rad_s), FNV_OFFSET),
+        Measurement::Vectors(set) => set.observations.iter().fold(FNV_OFFSET, |h, o| {
+            let h = fnv(bits(&o.body), h);
+            let h = fnv(bits(&o.reference), h);
+            let h = fnv(o.sigma.to_bits().to_le_bytes(), h);
+            fnv(o.sensor.as_deref().unwrap_or("").bytes().chain([0]), h)
+        }),
+    }
+}
+
+/// A finite unit quaternion and a finite, symmetric positive-definite covariance.
+fn healthy(e: &Estimate) -> bool {
+    e.q.is_finite()
+        && (e.q.norm() - 1.0).abs() < 1e-6
+        && e.bias_rad_s.iter().all(|b| b.is_finite())
+        && is_spd(&e.covariance)
 }
 
 impl VehicleState {
@@ -74,10 +195,21 @@ impl VehicleState {
         VehicleState {
             id: id.to_string(),
             config,
-            slot: Slot::Initializing { last_gyro: None },
+            slot: Slot::Initializing,
             seq: 0,
             generation: 0,
             last_t: None,
+            last_gyro: None,
+            held: VecDeque::new(),
+            newest: [None, None],
+            recent: [VecDeque::new(), VecDeque::new()],
+            jump: None,
+            gate: BTreeMap::new(),
+            consecutive_gated: 0,
+            consecutive_failures: 0,
+            rollbacks: 0,
+            reinits: BTreeMap::new(),
+            last_good: None,
         }
     }
 
@@ -94,7 +226,7 @@ impl VehicleState {
     }
 
     pub fn is_tracking(&self) -> bool {
-        matches!(self.slot, Slot::Tracking { .. })
+        matches!(self.slot, Slot::Tracking(_))
     }
 
     pub fn last_t(&self) -> Option<f64> {
@@ -103,6 +235,443 @@ impl VehicleState {
 
     pub fn seq(&self) -> u64 {
         self.seq
+    }
+
+    /// Samples waiting in the reorder window.
+    pub fn held(&self) -> usize {
+        self.held.len()
+    }
+
+    /// Gate, re-initialisation and rollback counts so far.
+    pub fn totals(&self) -> Totals {
+        Totals {
+            gated: self.gate.values().map(|c| c.gated).sum(),
+            reinits: self.reinits.values().sum(),
+            rollbacks: self.rollbacks,
+        }
+    }
+
+    /// After a restore: samples held before the restart are released at the next flush.
+    pub fn restart_clock(&mut self) {
+        for h in &mut self.held {
+            h.held_at_s = f64::NEG_INFINITY;
+        }
+    }
+
+    fn message(&self, e: &Estimate) -> EstimateMsg {
+        let mut msg = EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles());
+        let d = &mut msg.diagnostics;
+        d.gate = self.gate.clone();
+        d.consecutive_gated = self.consecutive_gated;
+        d.rollbacks = self.rollbacks;
+        d.reinits = self.reinits.clone();
+        d.held = self.held.len();
+        msg
+    }
+
+    /// The current estimate, if the vehicle is tracking.
+    pub fn estimate(&self) -> Option<EstimateMsg> {
+        match &self.slot {
+            Slot::Tracking(filter) => Some(self.message(&filter.estimate())),
+            Slot::Initializing => None,
+        }
+    }
+
+    /// Publishes `e` (already checked healthy) and remembers it as the last good state.
+    fn emit(&mut self, e: Estimate, out: &mut Vec<Event>) {
+        self.seq += 1;
+        out.push(Event::Estimate(self.message(&e)));
+        self.last_good = Some(e);
+    }
+
+    /// Checks the filter's estimate; an unhealthy one never leaves: the vehicle re-initialises from
+    /// its last good estimate instead. Then publishes.
+    fn check_and_emit(&mut self, policy: &Policy, out: &mut Vec<Event>) {
+        let Slot::Tracking(filter) = &self.slot else {
+            return;
+        };
+        let e = filter.estimate();
+        if healthy(&e) {
+            self.emit(e, out);
+            return;
+        }
+        let t = e.t_s;
+        tracing::warn!(vehicle = %self.id, t, "unhealthy filter state; re-initialising");
+        if self.reinit_from_last_good("health", t, policy) {
+            if let Slot::Tracking(filter) = &self.slot {
+                let e = filter.estimate();
+                if healthy(&e) {
+                    self.emit(e, out);
+                }
+            }
+        }
+    }
+
+    fn newest_any(&self) -> Option<f64> {
+        self.newest.iter().flatten().copied().reduce(f64::max)
+    }
+
+    /// Accepts a sample into the reorder window (or refuses it, changing nothing) and processes what
+    /// the window releases. `now_s` is the wall clock, s.
+    pub fn on_measurement(
+        &mut self,
+        m: Measurement,
+        now_s: f64,
+        policy: &Policy,
+        out: &mut Vec<Event>,
+    ) -> Result<(), Rejection> {
+        let stream = stream_of(&m);
+        let t = m.t_s();
+        let fp = fingerprint(&m);
+        let same = self.recent[stream as usize]
+            .iter()
+            .find(|(rt, _)| (rt - t).abs() <= SAME_INSTANT_S);
+        match (stream, same) {
+            (Stream::Gyro, Some((_, rfp))) => {
+                return Err(Rejection::new(
+                    RejectCode::Duplicate,
+                    if *rfp == fp {
+                        format!("the gyro sample at t = {t} s was already accepted")
+                    } else {
+                        format!("a different gyro sample at t = {t} s was already accepted; one rate per instant")
+                    },
+                ))
+            }
+            (Stream::Vectors, Some(_))
+                if self.recent[1]
+                    .iter()
+                    .any(|(rt, rfp)| (rt - t).abs() <= SAME_INSTANT_S && *rfp == fp) =>
+            {
+                return Err(Rejection::new(
+                    RejectCode::Duplicate,
+                    format!("this vector set (t = {t} s) was already accepted"),
+                ))
+            }
+            _ => {}
+        }
+        if let Some(last) = self.last_t {
+            if t < last - SAME_INSTANT_S {
+                return Err(Rejection::new(
+                    RejectCode::OutOfOrder,
+                    format!(
+                        "t = {t} s is older than the vehicle's last processed sample ({last} s) by more than the reorder window ({} s)",
+                        policy.reorder_window_s
+                    ),
+                ));
+            }
+        }
+        if let Some(newest) = self.newest_any() {
+            if t > newest + policy.max_jump_s {
+                // Consistent samples beyond the jump confirm a new time base (a real gap in the data);
+                // a single stray time does not move the vehicle.
+                let c = match self.jump {
+                    Some(j) if (t - j.t_s).abs() <= policy.max_jump_s => JumpCandidate {
+                        t_s: t.max(j.t_s),
+                        count: j.count + 1,
+                    },
+                    _ => JumpCandidate { t_s: t, count: 1 },
+                };
+                if c.count < JUMP_CONFIRMATIONS {
+                    self.jump = Some(c);
+                    return Err(Rejection::new(
+                        RejectCode::TimeJump,
+                        format!(
+                            "t = {t} s is {:.3} s ahead of the vehicle's newest sample ({newest} s), beyond time.max_jump_s = {} s; {} consistent samples (or a reset with t) accept the new time",
+                            t - newest,
+                            policy.max_jump_s,
+                            JUMP_CONFIRMATIONS
+                        ),
+                    ));
+                }
+                tracing::info!(vehicle = %self.id, t, newest, "time jump confirmed");
+            }
+        }
+        self.jump = None;
+        let recent = &mut self.recent[stream as usize];
+        if recent.len() == RECENT {
+            recent.pop_front();
+        }
+        recent.push_back((t, fp));
+        let n = &mut self.newest[stream as usize];
+        *n = Some(n.map_or(t, |x| x.max(t)));
+        let at = self.held.partition_point(|h| h.t_s <= t);
+        self.held.insert(
+            at,
+            Held {
+                t_s: t,
+                held_at_s: now_s,
+                m,
+            },
+        );
+        self.release(now_s, policy, false, out);
+        Ok(())
+    }
+
+    /// Releases what the window allows at wall time `now_s` (the periodic flush).
+    pub fn on_tick(&mut self, now_s: f64, policy: &Policy, out: &mut Vec<Event>) {
+        self.release(now_s, policy, false, out);
+    }
+
+    /// Processes every held sample, in time order.
+    pub fn flush_all(&mut self, policy: &Policy, out: &mut Vec<Event>) {
+        self.release(0.0, policy, true, out);
+    }
+
+    fn release(&mut self, now_s: f64, policy: &Policy, all: bool, out: &mut Vec<Event>) {
+        let window = policy.reorder_window_s;
+        // Every stream seen has reached this time: nothing older can still come (each stream is in
+        // order on its own key).
+        let watermark = self
+            .newest
+            .iter()
+            .flatten()
+            .copied()
+            .reduce(f64::min)
+            .unwrap_or(f64::NEG_INFINITY);
+        let newest = self.newest_any().unwrap_or(f64::NEG_INFINITY);
+        while let Some(first) = self.held.front() {
+            let ready = all
+                || window <= 0.0
+                || first.t_s <= watermark + SAME_INSTANT_S
+                || first.t_s <= newest - window
+                || now_s - first.held_at_s >= window;
+            if !ready {
+                break;
+            }
+            let Some(h) = self.held.pop_front() else {
+                break;
+            };
+            self.process(h.m, policy, out);
+        }
+    }
+
+    /// Uses one released sample.
+    fn process(&mut self, m: Measurement, policy: &Policy, out: &mut Vec<Event>) {
+        let stream = stream_of(&m);
+        let t = m.t_s();
+        if !self.is_tracking() && self.config.init == InitMode::Uniform {
+            // A particle filter that starts from a uniformly random attitude at its first sample.
+            if let Err(r) = self.start_uniform(t) {
+                out.push(Event::Rejected(stream, r));
+                return;
+            }
+        }
+        let result = match m {
+            Measurement::Gyro(g) => self.process_gyro(g, policy, out),
+            Measurement::Vectors(set) => self.process_vectors(set, policy, out),
+        };
+        match result {
+            Ok(()) => {
+                self.last_t = Some(self.last_t.map_or(t, |l| l.max(t)));
+                out.push(Event::Processed(stream));
+            }
+            Err(r) => out.push(Event::Rejected(stream, r)),
+        }
+    }
+
+    fn process_gyro(
+        &mut self,
+        g: GyroSample,
+        policy: &Policy,
+        out: &mut Vec<Event>,
+    ) -> Result<(), Rejection> {
+        if let Slot::Tracking(filter) = &mut self.slot {
+            if let Err(e) = filter.process(&Measurement::Gyro(g)) {
+                return Err(self.failure(&e, g.t_s, policy, out));
+            }
+        }
+        self.consecutive_failures = 0;
+        self.last_gyro = Some(g);
+        Ok(())
+    }
+
+    fn process_vectors(
+        &mut self,
+        set: ObservationSet,
+        policy: &Policy,
+        out: &mut Vec<Event>,
+    ) -> Result<(), Rejection> {
+        let Slot::Tracking(filter) = &mut self.slot else {
+            self.start_from_vectors(&set)?;
+            self.check_and_emit(policy, out);
+            return Ok(());
+        };
+        if let Err(e) = filter.advance_to(set.t_s) {
+            return Err(self.failure(&e, set.t_s, policy, out));
+        }
+        let prior = filter.estimate();
+        let accepted = self.gate(&set, &prior, policy);
+        if accepted.is_empty() {
+            self.consecutive_gated += 1;
+            if policy.gate_reinit_after > 0 && self.consecutive_gated >= policy.gate_reinit_after {
+                tracing::info!(vehicle = %self.id, t = set.t_s, n = self.consecutive_gated, "every observation gated repeatedly; re-initialising");
+                self.reinit_for_gate(&set, policy)?;
+            }
+            // The propagated estimate is still published: one estimate per vector set, with the
+            // gating visible in its diagnostics.
+            self.check_and_emit(policy, out);
+            return Ok(());
+        }
+        self.consecutive_gated = 0;
+        let used = Measurement::Vectors(ObservationSet {
+            t_s: set.t_s,
+            observations: accepted,
+        });
+        let Slot::Tracking(filter) = &mut self.slot else {
+            unreachable!("tracking was checked above");
+        };
+        if let Err(e) = filter.process(&used) {
+            return Err(self.failure(&e, set.t_s, policy, out));
+        }
+        self.consecutive_failures = 0;
+        self.check_and_emit(policy, out);
+        Ok(())
+    }
+
+    /// The observations of `set` that pass their sensor's χ² gate about `prior`; counts both kinds.
+    fn gate(
+        &mut self,
+        set: &ObservationSet,
+        prior: &Estimate,
+        policy: &Policy,
+    ) -> Vec<VectorObservation> {
+        let a = prior.q.attitude_matrix();
+        let p_att: Matrix3<f64> = prior.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+        let mut accepted = Vec::with_capacity(set.observations.len());
+        for o in &set.observations {
+            let pass = match policy.gate_for(o.sensor.as_deref()) {
+                None => true,
+                Some(threshold) => {
+                    // ν = b − A r, S = [b̂×] P [b̂×]ᵀ + σ² I (the MEKF's measurement model).
+                    let predicted = a * o.reference;
+                    let h = skew(&predicted);
+                    let s = h * p_att * h.transpose() + Matrix3::identity() * (o.sigma * o.sigma);
+                    let nu = o.body - predicted;
+                    match s.cholesky() {
+                        Some(c) => {
+                            let nis = nu.dot(&c.solve(&nu));
+                            // A non-finite NIS cannot be judged: let the filter decide.
+                            !(nis > threshold)
+                        }
+                        None => true,
+                    }
+                }
+            };
+            let name = o.sensor.as_deref().unwrap_or(UNNAMED);
+            let key = if self.gate.contains_key(name) || self.gate.len() < policy.max_sensors_per_vehicle
+            {
+                name
+            } else {
+                OTHER
+            };
+            let c = self.gate.entry(key.to_string()).or_default();
+            if pass {
+                c.accepted += 1;
+                accepted.push(o.clone());
+            } else {
+                c.gated += 1;
+            }
+        }
+        accepted
+    }
+
+    /// A failed filter step: the filter rolled itself back; after repeated failures the vehicle
+    /// re-initialises from its last good estimate.
+    fn failure(
+        &mut self,
+        e: &FilterError,
+        t_s: f64,
+        policy: &Policy,
+        out: &mut Vec<Event>,
+    ) -> Rejection {
+        let r = filter_error(e);
+        if r.code != RejectCode::FilterError {
+            return r;
+        }
+        self.rollbacks += 1;
+        self.consecutive_failures += 1;
+        tracing::warn!(vehicle = %self.id, t_s, error = %e, "filter step failed and was rolled back");
+        if self.consecutive_failures >= policy.reinit_after_failures {
+            self.consecutive_failures = 0;
+            if self.reinit_from_last_good("health", t_s, policy) {
+                self.check_and_emit(policy, out);
+            }
+        }
+        r
+    }
+
+    fn count_reinit(&mut self, reason: &str) {
+        *self.reinits.entry(reason.to_string()).or_insert(0) += 1;
+    }
+
+    /// Restarts the filter from the last good estimate with its 1σ inflated, propagated to `t_s` with
+    /// the held rate. Without a good estimate the vehicle goes back to initialising. True when a
+    /// filter runs afterwards.
+    fn reinit_from_last_good(&mut self, reason: &str, t_s: f64, policy: &Policy) -> bool {
+        self.count_reinit(reason);
+        let Some(good) = self.last_good.clone() else {
+            self.slot = Slot::Initializing;
+            return false;
+        };
+        if self.restart_from(&good, t_s, policy).is_err() {
+            self.slot = Slot::Initializing;
+            self.last_good = None;
+            return false;
+        }
+        true
+    }
+
+    fn restart_from(&mut self, e: &Estimate, t_s: f64, policy: &Policy) -> Result<(), Rejection> {
+        let f = policy.reinit_sigma_factor;
+        let c = &e.covariance;
+        let sigma_att = e.sigma_att_rad().map(|s| (s * f).max(MIN_REINIT_SIGMA_RAD));
+        let bias_sigma = Vector3::from_fn(|i, _| {
+            (c[(i + 3, i + 3)].max(0.0).sqrt() * f).max(self.config.init_bias_sigma_rad_s[i])
+        });
+        self.start(InitialState {
+            t_s: Some(e.t_s.min(t_s)),
+            q: e.q,
+            sigma_att_rad: sigma_att,
+            bias_rad_s: e.bias_rad_s,
+            bias_sigma_rad_s: bias_sigma,
+            uniform_attitude: false,
+        })?;
+        self.feed_held_rate(e.t_s.min(t_s))?;
+        if let Slot::Tracking(filter) = &mut self.slot {
+            filter.advance_to(t_s).map_err(|e| filter_error(&e))?;
+        }
+        Ok(())
+    }
+
+    /// K consecutive sets were gated entirely: the filter, not the sensors, is presumed wrong. Starts
+    /// again the way the vehicle started (from this set when it determines the attitude, uniformly
+    /// for a uniform-init particle filter), otherwise from the current estimate with its 1σ inflated;
+    /// then uses the set.
+    fn reinit_for_gate(&mut self, set: &ObservationSet, policy: &Policy) -> Result<(), Rejection> {
+        self.count_reinit("gate");
+        self.consecutive_gated = 0;
+        if q_method(&set.observations).is_ok() {
+            return self.start_from_vectors(set);
+        }
+        if self.config.init == InitMode::Uniform {
+            self.start_uniform(set.t_s)?;
+        } else {
+            let Slot::Tracking(filter) = &self.slot else {
+                return Ok(());
+            };
+            let e = filter.estimate();
+            let wide = Estimate {
+                covariance: e.covariance * policy.reinit_sigma_factor.powi(2),
+                ..e
+            };
+            self.restart_from(&wide, set.t_s, policy)?;
+        }
+        if let Slot::Tracking(filter) = &mut self.slot {
+            filter
+                .process(&Measurement::Vectors(set.clone()))
+                .map_err(|e| filter_error(&e))?;
+        }
+        Ok(())
     }
 
     fn start(&mut self, initial: InitialState) -> Result<(), Rejection> {
@@ -114,85 +683,9 @@ impl VehicleState {
             )
         })?;
         self.generation += 1;
-        self.slot = Slot::Tracking { filter };
+        self.slot = Slot::Tracking(filter);
+        self.consecutive_failures = 0;
         Ok(())
-    }
-
-    fn publish(&mut self) -> Outcome {
-        let Slot::Tracking { filter } = &self.slot else {
-            return Outcome::Quiet;
-        };
-        self.seq += 1;
-        Outcome::Estimate(EstimateMsg::from_domain(
-            &self.id,
-            &filter.spec(),
-            &filter.estimate(),
-            self.seq,
-            self.particles(),
-        ))
-    }
-
-    /// The current estimate, if the vehicle is tracking.
-    pub fn estimate(&self) -> Option<EstimateMsg> {
-        match &self.slot {
-            Slot::Tracking { filter } => Some(EstimateMsg::from_domain(
-                &self.id,
-                &filter.spec(),
-                &filter.estimate(),
-                self.seq,
-                self.particles(),
-            )),
-            Slot::Initializing { .. } => None,
-        }
-    }
-
-    pub fn on_measurement(&mut self, m: Measurement) -> Result<Outcome, Rejection> {
-        let t = m.t_s();
-        if let Some(last) = self.last_t.filter(|_| !self.is_tracking()) {
-            if t < last {
-                return Err(Rejection::new(
-                    RejectCode::OutOfOrder,
-                    format!("measurement at t = {t} s is older than the last one ({last} s)"),
-                ));
-            }
-        }
-        if !self.is_tracking() && self.config.init == InitMode::Uniform {
-            // A particle filter that starts from a uniformly random attitude at its first measurement.
-            let held = self.held_gyro();
-            self.start_uniform(t)?;
-            if let Some(g) = held {
-                self.feed_held_rate(&g, t)?;
-            }
-        }
-        let is_vectors = matches!(m, Measurement::Vectors(_));
-        let outcome = match (&mut self.slot, m) {
-            (Slot::Tracking { filter }, m) => {
-                filter.process(&m).map_err(filter_error)?;
-                if is_vectors {
-                    self.publish()
-                } else {
-                    Outcome::Quiet
-                }
-            }
-            (Slot::Initializing { last_gyro }, Measurement::Gyro(g)) => {
-                *last_gyro = Some(g);
-                Outcome::Quiet
-            }
-            (Slot::Initializing { last_gyro }, Measurement::Vectors(set)) => {
-                let held = *last_gyro;
-                self.start_from_vectors(&set, held)?;
-                self.publish()
-            }
-        };
-        self.last_t = Some(self.last_t.map_or(t, |l| l.max(t)));
-        Ok(outcome)
-    }
-
-    fn held_gyro(&self) -> Option<GyroSample> {
-        match &self.slot {
-            Slot::Initializing { last_gyro } => *last_gyro,
-            Slot::Tracking { .. } => None,
-        }
     }
 
     fn start_uniform(&mut self, t_s: f64) -> Result<(), Rejection> {
@@ -203,28 +696,25 @@ impl VehicleState {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: self.config.init_bias_sigma_rad_s,
             uniform_attitude: true,
-        })
+        })?;
+        self.feed_held_rate(t_s)
     }
 
-    /// The held gyro rate at the start time: the last sample's rate, valid from `t_s` on.
-    fn feed_held_rate(&mut self, g: &GyroSample, t_s: f64) -> Result<(), Rejection> {
-        if let Slot::Tracking { filter } = &mut self.slot {
-            filter
-                .process(&Measurement::Gyro(GyroSample {
-                    t_s,
-                    omega_body_rad_s: g.omega_body_rad_s,
-                }))
-                .map_err(filter_error)?;
-        }
-        Ok(())
+    /// Gives a newly started filter the last gyro rate, valid from `t_s` on.
+    fn feed_held_rate(&mut self, t_s: f64) -> Result<(), Rejection> {
+        let (Some(g), Slot::Tracking(filter)) = (self.last_gyro, &mut self.slot) else {
+            return Ok(());
+        };
+        filter
+            .process(&Measurement::Gyro(GyroSample {
+                t_s,
+                omega_body_rad_s: g.omega_body_rad_s,
+            }))
+            .map_err(|e| filter_error(&e))
     }
 
     /// Starts from the q-method solution of `set` and its covariance (the set is not used twice).
-    fn start_from_vectors(
-        &mut self,
-        set: &ObservationSet,
-        held: Option<GyroSample>,
-    ) -> Result<(), Rejection> {
+    fn start_from_vectors(&mut self, set: &ObservationSet) -> Result<(), Rejection> {
         let solution = q_method(&set.observations).map_err(|e| {
             Rejection::new(
                 RejectCode::NotInitialized,
@@ -244,17 +734,17 @@ impl VehicleState {
             bias_sigma_rad_s: self.config.init_bias_sigma_rad_s,
             uniform_attitude: false,
         })?;
-        if let Some(g) = held {
-            self.feed_held_rate(&g, set.t_s)?;
-        }
-        Ok(())
+        self.feed_held_rate(set.t_s)
     }
 
     /// Applies a reset request (already parsed); refuses invalid parameters without changing anything.
+    /// Samples still in the reorder window arrived before the reset and are used first.
     pub fn on_reset(
         &mut self,
         req: &ResetMsg,
         base: &VehicleFilterConfig,
+        policy: &Policy,
+        out: &mut Vec<Event>,
     ) -> Result<ResetReplyMsg, Rejection> {
         let bad = |code: RejectCode, m: String| Err(Rejection::new(code, m));
         let mut config = self.config.clone();
@@ -337,8 +827,15 @@ impl VehicleState {
             if !t.is_finite() {
                 return bad(RejectCode::NonFinite, "t must be finite".into());
             }
+            if t.abs() > crate::wire::MAX_TIME_S {
+                return bad(
+                    RejectCode::OutOfRange,
+                    format!("t = {t} s is beyond ±{:e} s", crate::wire::MAX_TIME_S),
+                );
+            }
         }
-        // Everything is valid: apply.
+        // Everything is valid: use what arrived before the reset, then apply it.
+        self.flush_all(policy, out);
         let previous = std::mem::replace(&mut self.config, config);
         match q {
             Some(q) => {
@@ -357,20 +854,30 @@ impl VehicleState {
                     self.config = previous;
                     return Err(e);
                 }
-                if let Some(t) = req.t {
-                    self.last_t = Some(t);
-                }
             }
-            None => {
-                self.slot = Slot::Initializing { last_gyro: None };
-                if req.t.is_some() {
-                    self.last_t = req.t;
-                }
-            }
+            None => self.slot = Slot::Initializing,
         }
-        let estimate = match self.publish() {
-            Outcome::Estimate(e) => Some(e),
-            Outcome::Quiet => None,
+        if let Some(t) = req.t {
+            // A reset with a time re-anchors the vehicle's clock (the way back after a jump).
+            self.last_t = Some(t);
+            self.newest = [None, None];
+            self.recent = [VecDeque::new(), VecDeque::new()];
+        }
+        self.jump = None;
+        self.consecutive_gated = 0;
+        self.consecutive_failures = 0;
+        self.last_good = None;
+        let estimate = match &self.slot {
+            Slot::Tracking(filter) => {
+                let e = filter.estimate();
+                let mut events = Vec::new();
+                self.emit(e, &mut events);
+                events.into_iter().find_map(|ev| match ev {
+                    Event::Estimate(e) => Some(e),
+                    _ => None,
+                })
+            }
+            Slot::Initializing => None,
         };
         Ok(ResetReplyMsg {
             vehicle: self.id.clone(),

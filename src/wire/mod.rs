@@ -51,6 +51,15 @@ pub enum RejectCode {
     TooManyVehicles,
     /// The sample is older than what the vehicle's filter already processed.
     OutOfOrder,
+    /// The same sample again: a gyro sample at the time of one already accepted, or a vector set
+    /// identical to one already accepted at the same time.
+    Duplicate,
+    /// The sample is further ahead of the vehicle's newest time than `time.max_jump_s` (a reset with
+    /// `t` re-anchors the vehicle's time).
+    TimeJump,
+    /// A finite number outside its physical range (a rate above `limits.max_rate_rad_s`, a time beyond
+    /// ±1e12 s, a vector or sigma above 1e100).
+    OutOfRange,
     /// The vehicle's input queue is full.
     QueueFull,
     /// The filter refused the input (numerical failure); the filter is unchanged.
@@ -60,7 +69,7 @@ pub enum RejectCode {
 }
 
 impl RejectCode {
-    pub const ALL: [RejectCode; 16] = [
+    pub const ALL: [RejectCode; 19] = [
         RejectCode::InvalidUtf8,
         RejectCode::InvalidJson,
         RejectCode::BadRequest,
@@ -74,6 +83,9 @@ impl RejectCode {
         RejectCode::NotInitialized,
         RejectCode::TooManyVehicles,
         RejectCode::OutOfOrder,
+        RejectCode::Duplicate,
+        RejectCode::TimeJump,
+        RejectCode::OutOfRange,
         RejectCode::QueueFull,
         RejectCode::FilterError,
         RejectCode::Internal,
@@ -94,6 +106,9 @@ impl RejectCode {
             RejectCode::NotInitialized => "not_initialized",
             RejectCode::TooManyVehicles => "too_many_vehicles",
             RejectCode::OutOfOrder => "out_of_order",
+            RejectCode::Duplicate => "duplicate",
+            RejectCode::TimeJump => "time_jump",
+            RejectCode::OutOfRange => "out_of_range",
             RejectCode::QueueFull => "queue_full",
             RejectCode::FilterError => "filter_error",
             RejectCode::Internal => "internal",
@@ -180,7 +195,15 @@ pub struct InputLimits {
     pub max_batch: usize,
     /// Most observations in one set.
     pub max_observations: usize,
+    /// Largest gyro rate accepted, rad/s (beyond any real gyro's range; guards the filters from
+    /// finite numbers that overflow).
+    pub max_rate_rad_s: f64,
 }
+
+/// Largest |t| accepted, s (about 31,700 years).
+pub const MAX_TIME_S: f64 = 1e12;
+/// Largest vector norm or sigma accepted (their squares must stay finite).
+pub const MAX_MAGNITUDE: f64 = 1e100;
 
 impl Default for InputLimits {
     fn default() -> Self {
@@ -188,6 +211,7 @@ impl Default for InputLimits {
             max_payload_bytes: 1 << 20,
             max_batch: 10_000,
             max_observations: 64,
+            max_rate_rad_s: 100.0,
         }
     }
 }
@@ -204,18 +228,45 @@ fn finite3(v: &[f64; 3], what: &str) -> Result<Vector3<f64>, Rejection> {
 }
 
 fn finite_time(t: f64) -> Result<f64, Rejection> {
-    if t.is_finite() {
-        Ok(t)
-    } else {
+    if !t.is_finite() {
         Err(Rejection::new(RejectCode::NonFinite, "t must be finite"))
+    } else if t.abs() > MAX_TIME_S {
+        Err(Rejection::new(
+            RejectCode::OutOfRange,
+            format!("t = {t} s is beyond ±{MAX_TIME_S:e} s"),
+        ))
+    } else {
+        Ok(t)
+    }
+}
+
+fn within(v: f64, what: &str) -> Result<(), Rejection> {
+    if v > MAX_MAGNITUDE {
+        Err(Rejection::new(
+            RejectCode::OutOfRange,
+            format!("{what} = {v:e} exceeds {MAX_MAGNITUDE:e}"),
+        ))
+    } else {
+        Ok(())
     }
 }
 
 impl GyroMsg {
-    pub fn to_domain(&self) -> Result<GyroSample, Rejection> {
+    pub fn to_domain(&self, limits: &InputLimits) -> Result<GyroSample, Rejection> {
+        let omega = finite3(&self.omega, "omega")?;
+        if omega.norm() > limits.max_rate_rad_s {
+            return Err(Rejection::new(
+                RejectCode::OutOfRange,
+                format!(
+                    "|omega| = {:e} rad/s exceeds limits.max_rate_rad_s = {}",
+                    omega.norm(),
+                    limits.max_rate_rad_s
+                ),
+            ));
+        }
         Ok(GyroSample {
             t_s: finite_time(self.t)?,
-            omega_body_rad_s: finite3(&self.omega, "omega")?,
+            omega_body_rad_s: omega,
         })
     }
 }
@@ -236,7 +287,9 @@ impl ObservationMsg {
                 format!("obs[{index}].sigma must be positive, got {}", self.sigma),
             ));
         }
+        within(self.sigma, &format!("obs[{index}].sigma"))?;
         for (v, name) in [(&body, "body"), (&reference, "ref")] {
+            within(v.amax(), &format!("obs[{index}].{name}"))?;
             if v.norm() < MIN_VECTOR_NORM {
                 return Err(Rejection::new(
                     RejectCode::ZeroVector,
@@ -434,6 +487,39 @@ pub struct DiagnosticsMsg {
     /// Inputs of this vehicle refused so far, by code.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub rejected: BTreeMap<String, u64>,
+    /// Seconds since the last gyro sample while a gyro gap is in progress (the uncertainty is being
+    /// inflated); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_gap_s: Option<f64>,
+    /// Gyro gaps so far.
+    #[serde(default)]
+    pub gyro_gaps: u64,
+    /// Observations used and refused by the χ² innovation gate, per sensor name (`unnamed` for
+    /// observations without one).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub gate: BTreeMap<String, GateCountsMsg>,
+    /// Consecutive vector sets whose every observation was gated (the vehicle re-initialises at
+    /// `gate.reinit_after`).
+    #[serde(default)]
+    pub consecutive_gated: u32,
+    /// Inputs whose filter step failed numerically and was rolled back.
+    #[serde(default)]
+    pub rollbacks: u64,
+    /// Re-initialisations by reason: `gate` (K consecutive gated sets), `health` (a non-finite or
+    /// non-positive-definite state, or repeated failures).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub reinits: BTreeMap<String, u64>,
+    /// Samples waiting in the reorder window.
+    #[serde(default)]
+    pub held: usize,
+}
+
+/// One sensor's gate counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GateCountsMsg {
+    pub accepted: u64,
+    pub gated: u64,
 }
 
 /// `P/V/estimate` and the `P/V/state` reply.
@@ -497,6 +583,9 @@ impl EstimateMsg {
                 resamples: d.resamples,
                 fiducial_fallbacks: d.fiducial_fallbacks,
                 rejected: BTreeMap::new(),
+                gyro_gap_s: d.gyro_gap_s,
+                gyro_gaps: d.gyro_gaps,
+                ..DiagnosticsMsg::default()
             },
         }
     }
@@ -654,6 +743,34 @@ pub struct HealthMsg {
     /// Refused inputs and requests, by code.
     pub rejected: BTreeMap<String, u64>,
     pub queries: u64,
+    /// Samples waiting in the vehicles' reorder windows.
+    #[serde(default)]
+    pub held: u64,
+    /// Observations refused by the innovation gate, re-initialisations and rolled-back filter steps,
+    /// summed over the vehicles.
+    #[serde(default)]
+    pub gated: u64,
+    #[serde(default)]
+    pub reinits: u64,
+    #[serde(default)]
+    pub rollbacks: u64,
+    /// Checkpointing, when a state directory is configured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoints: Option<CheckpointHealthMsg>,
+}
+
+/// `P/@/health` `checkpoints`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointHealthMsg {
+    pub state_dir: String,
+    pub interval_s: f64,
+    /// Vehicles restored at start, and checkpoint files skipped then (corrupt or unreadable).
+    pub restored: u64,
+    pub skipped: u64,
+    /// Checkpoint files written and failed writes since start.
+    pub written: u64,
+    pub failed: u64,
 }
 
 #[cfg(test)]
