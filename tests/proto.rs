@@ -16,9 +16,10 @@
 
 use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
-    decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg, DiagnosticsMsg, ErrorMsg,
-    EstimateMsg, GateCountsMsg, GyroMsg, HealthMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg,
-    RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
+    decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
+    DiagnosticsMsg, ErrorMsg, EstimateMsg, GateCountsMsg, GyroMsg, HealthMsg, InputLimits,
+    ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
+    TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;

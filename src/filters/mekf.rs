@@ -4,8 +4,8 @@
 //! Error state `x = [δα; Δβ]` (rad, rad/s), `δq = q ⊗ q̂⁻¹ ≈ [δα/2; 1]`.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore, FilterError, FilterSpec,
-    InitialState, SavedFilterRef,
+    is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore, FilterError,
+    FilterSpec, InitialState, SavedFilterRef,
 };
 use crate::attitude::{skew, Quaternion};
 use crate::sensors::{GyroNoise, VectorObservation};

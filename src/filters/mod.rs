@@ -532,7 +532,8 @@ pub fn build_filter(
 ) -> Result<Box<dyn AttitudeFilter>, FilterError> {
     match config.spec.kind {
         FilterKind::Mekf => Ok(Box::new(
-            Driver::new(Mekf::new(config, initial)?, initial.t_s).with_gap(config.gap, &config.gyro),
+            Driver::new(Mekf::new(config, initial)?, initial.t_s)
+                .with_gap(config.gap, &config.gyro),
         )),
         FilterKind::Usque => Ok(Box::new(
             Driver::new(Usque::new(config, initial, config.usque)?, initial.t_s)

@@ -858,8 +858,11 @@ impl FilterCore for Qpf {
         for i in 0..self.cloud.len() {
             let (q, b) = (self.cloud.q(i), self.cloud.beta(i));
             let dalpha = normal3(&mut self.rng) * sigma;
-            self.cloud
-                .set(i, &Quaternion::from_rotation_vector(&dalpha).compose(&q), &b);
+            self.cloud.set(
+                i,
+                &Quaternion::from_rotation_vector(&dalpha).compose(&q),
+                &b,
+            );
         }
         self.stale = true;
     }

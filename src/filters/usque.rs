@@ -37,8 +37,8 @@
 //! `a = 1, f = 4`, `k = 1` and this changes nothing.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError,
-    FilterKind, FilterSpec, InitialState, SavedFilterRef,
+    is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore,
+    FilterError, FilterKind, FilterSpec, InitialState, SavedFilterRef,
 };
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::sensors::{GyroNoise, VectorObservation};

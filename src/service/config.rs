@@ -6,8 +6,8 @@ use crate::attitude::Grp;
 use crate::filters::{
     Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, Kernel, QpfOptions, UsqueOptions,
 };
-use crate::study::runner::chi_square_quantile;
 use crate::sensors::GyroNoise;
+use crate::study::runner::chi_square_quantile;
 use crate::wire::{validate_vehicle_id, InputLimits};
 use nalgebra::Vector3;
 use serde::Deserialize;

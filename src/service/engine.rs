@@ -735,18 +735,35 @@ impl Engine {
             estimates_published: c.estimates.load(Ordering::Relaxed),
             rejected,
             queries: c.queries.load(Ordering::Relaxed),
-            held: vehicles.iter().map(|v| v.held.load(Ordering::Relaxed) as u64).sum(),
-            gated: vehicles.iter().map(|v| v.gated.load(Ordering::Relaxed)).sum(),
-            reinits: vehicles.iter().map(|v| v.reinits.load(Ordering::Relaxed)).sum(),
-            rollbacks: vehicles.iter().map(|v| v.rollbacks.load(Ordering::Relaxed)).sum(),
-            checkpoints: self.config.persistence.state_dir.as_ref().map(|d| CheckpointHealthMsg {
-                state_dir: d.display().to_string(),
-                interval_s: self.config.persistence.checkpoint_interval_s,
-                restored: c.restored.load(Ordering::Relaxed),
-                skipped: c.skipped.load(Ordering::Relaxed),
-                written: c.written.load(Ordering::Relaxed),
-                failed: c.write_failed.load(Ordering::Relaxed),
-            }),
+            held: vehicles
+                .iter()
+                .map(|v| v.held.load(Ordering::Relaxed) as u64)
+                .sum(),
+            gated: vehicles
+                .iter()
+                .map(|v| v.gated.load(Ordering::Relaxed))
+                .sum(),
+            reinits: vehicles
+                .iter()
+                .map(|v| v.reinits.load(Ordering::Relaxed))
+                .sum(),
+            rollbacks: vehicles
+                .iter()
+                .map(|v| v.rollbacks.load(Ordering::Relaxed))
+                .sum(),
+            checkpoints: self
+                .config
+                .persistence
+                .state_dir
+                .as_ref()
+                .map(|d| CheckpointHealthMsg {
+                    state_dir: d.display().to_string(),
+                    interval_s: self.config.persistence.checkpoint_interval_s,
+                    restored: c.restored.load(Ordering::Relaxed),
+                    skipped: c.skipped.load(Ordering::Relaxed),
+                    written: c.written.load(Ordering::Relaxed),
+                    failed: c.write_failed.load(Ordering::Relaxed),
+                }),
         }
     }
 }

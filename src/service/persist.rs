@@ -80,7 +80,9 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let version = u32_at(8);
     if version != VERSION {
-        return Err(format!("format version {version}, this service reads {VERSION}"));
+        return Err(format!(
+            "format version {version}, this service reads {VERSION}"
+        ));
     }
     let len = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes")) as usize;
     let payload = &bytes[HEADER..];

@@ -259,7 +259,8 @@ impl VehicleState {
     }
 
     fn message(&self, e: &Estimate) -> EstimateMsg {
-        let mut msg = EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles());
+        let mut msg =
+            EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles());
         let d = &mut msg.diagnostics;
         d.gate = self.gate.clone();
         d.consecutive_gated = self.consecutive_gated;
@@ -480,7 +481,7 @@ impl VehicleState {
                 return Err(self.failure(&e, g.t_s, policy, out));
             }
         }
-        self.consecutive_failures = 0;
+        // (Only a successful update clears the failure count: propagations say nothing of it.)
         self.last_gyro = Some(g);
         Ok(())
     }
@@ -558,7 +559,8 @@ impl VehicleState {
                 }
             };
             let name = o.sensor.as_deref().unwrap_or(UNNAMED);
-            let key = if self.gate.contains_key(name) || self.gate.len() < policy.max_sensors_per_vehicle
+            let key = if self.gate.contains_key(name)
+                || self.gate.len() < policy.max_sensors_per_vehicle
             {
                 name
             } else {

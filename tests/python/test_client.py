@@ -29,7 +29,14 @@ def test_observation_forms_and_numpy_inputs(client):
             (np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0]), np.float32(1e-4), "st2"),
         ],
     )
-    client.publish_vectors_batch(vehicle, [(1.0, [([1, 0, 0], [1, 0, 0], 1e-4), ([0, 1, 0], [0, 1, 0], 1e-4)])] * 2)
+    # Two different sets at the same time (an identical one would be a duplicate).
+    client.publish_vectors_batch(
+        vehicle,
+        [
+            (1.0, [([1, 0, 0], [1, 0, 0], 1e-4), ([0, 1, 0], [0, 1, 0], 1e-4)]),
+            (1.0, [([1, 0, 0], [1, 0, 0], 2e-4), ([0, 1, 0], [0, 1, 0], 2e-4)]),
+        ],
+    )
     got = estimates.wait_for(lambda i: len(i) >= 3, 10, "three estimates")
     sub.undeclare()
     assert [e["t"] for e in got] == [0.0, 1.0, 1.0]

@@ -144,7 +144,8 @@ def test_equal_times_are_accepted(client):
     s = Scenario(seed=31)
     client.publish_gyro(vehicle, 1.0, [0, 0, 0.01])
     client.publish_vectors(vehicle, 1.0, s.vectors(1.0))
-    client.publish_gyro(vehicle, 1.0, [0, 0, 0.01])
+    # Another set at the same instant (new noise: an identical set, like a second gyro sample at the
+    # same time, would be a duplicate).
     client.publish_vectors(vehicle, 1.0, s.vectors(1.0))
     estimates.wait_for(lambda i: len(i) >= 2, 10, "two estimates")
     client.health()
