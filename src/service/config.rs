@@ -323,6 +323,8 @@ pub struct Policy {
     /// Factor on the last good estimate's 1σ when re-initialising from it.
     pub reinit_sigma_factor: f64,
     pub max_sensors_per_vehicle: usize,
+    /// Largest gyro rate (and reset bias) accepted, rad/s.
+    pub max_rate_rad_s: f64,
 }
 
 impl Policy {
@@ -627,6 +629,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         reinit_after_failures: h.reinit_after_failures.max(1),
         reinit_sigma_factor: h.reinit_sigma_factor,
         max_sensors_per_vehicle: l.max_sensors_per_vehicle,
+        max_rate_rad_s: l.max_rate_rad_s,
     };
     let persistence = Persistence {
         state_dir: pz.state_dir.as_ref().map(std::path::PathBuf::from),

@@ -479,8 +479,13 @@ impl Engine {
         }
         tracing::debug!(key, code = r.code.as_str(), message = %r.message, "rejected");
         let msg = r.to_message(key);
+        let to = if vehicle.contains(['*', '$']) {
+            self.keys.rejected_wildcard()
+        } else {
+            self.keys.vehicle(vehicle, Leaf::Rejected)
+        };
         if let Ok(payload) = serde_json::to_vec(&msg) {
-            (self.sink)(&self.keys.vehicle(vehicle, Leaf::Rejected), payload);
+            (self.sink)(&to, payload);
         }
     }
 
@@ -530,7 +535,6 @@ impl Engine {
             Ok(v) => v,
             Err(r) => return self.reject(vehicle, &inbound.key, &r),
         };
-        v.received.fetch_add(n, Ordering::Relaxed);
         {
             let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
             if inbox.len() + measurements.len() > self.config.limits.queue_per_vehicle {
@@ -546,6 +550,8 @@ impl Engine {
                 return self.reject(vehicle, &inbound.key, &r);
             }
             inbox.extend(measurements.into_iter().map(Input::Measurement));
+            // (A refused payload is counted as one rejection, not as received samples.)
+            v.received.fetch_add(n, Ordering::Relaxed);
         }
         self.schedule(&v);
     }

@@ -77,6 +77,12 @@ impl Keys {
         format!("{}/@/vehicles", self.prefix)
     }
 
+    /// `P/@/rejected`: where rejections of inputs whose vehicle chunk is a wildcard go (on their own
+    /// key they would reach every vehicle's rejection subscribers).
+    pub fn rejected_wildcard(&self) -> String {
+        format!("{}/@/rejected", self.prefix)
+    }
+
     /// `P/@/health`.
     pub fn health(&self) -> String {
         format!("{}/@/health", self.prefix)

@@ -28,8 +28,13 @@ const RECENT: usize = 16;
 /// Gate statistics of observations without a sensor name, and of names beyond the per-vehicle limit.
 const UNNAMED: &str = "unnamed";
 const OTHER: &str = "other";
-/// Smallest attitude 1σ after a re-initialisation from an estimate, rad (1°).
+/// Attitude 1σ after a re-initialisation from an estimate: at least 1°, at most 60° (beyond, a
+/// Kalman filter's linearisation means nothing and repeated re-initialisations must not compound).
 const MIN_REINIT_SIGMA_RAD: f64 = 1.0 * std::f64::consts::PI / 180.0;
+const MAX_REINIT_SIGMA_RAD: f64 = 60.0 * std::f64::consts::PI / 180.0;
+/// The gate judges an observation only when the prior is informative: every attitude 1σ below this
+/// (a broad or multimodal particle cloud is left to its own likelihood), rad (10°).
+const GATE_MAX_PRIOR_SIGMA_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 /// Consistent samples beyond a time jump that re-anchor the vehicle's time.
 pub const JUMP_CONFIRMATIONS: u32 = 3;
 
@@ -461,12 +466,25 @@ impl VehicleState {
             Measurement::Gyro(g) => self.process_gyro(g, policy, out),
             Measurement::Vectors(set) => self.process_vectors(set, policy, out),
         };
+        // The filter's time may have advanced even when the input was refused (a failed update
+        // after its propagation): later samples are judged against it.
+        let filter_t = match &self.slot {
+            Slot::Tracking(f) => f.time_s(),
+            Slot::Initializing => None,
+        };
+        let newest = [self.last_t, filter_t]
+            .into_iter()
+            .flatten()
+            .reduce(f64::max);
         match result {
             Ok(()) => {
-                self.last_t = Some(self.last_t.map_or(t, |l| l.max(t)));
+                self.last_t = Some(newest.map_or(t, |l| l.max(t)));
                 out.push(Event::Processed(stream));
             }
-            Err(r) => out.push(Event::Rejected(stream, r)),
+            Err(r) => {
+                self.last_t = newest;
+                out.push(Event::Rejected(stream, r));
+            }
         }
     }
 
@@ -538,9 +556,14 @@ impl VehicleState {
     ) -> Vec<VectorObservation> {
         let a = prior.q.attitude_matrix();
         let p_att: Matrix3<f64> = prior.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+        let informative = prior
+            .sigma_att_rad()
+            .iter()
+            .all(|s| *s < GATE_MAX_PRIOR_SIGMA_RAD);
         let mut accepted = Vec::with_capacity(set.observations.len());
         for o in &set.observations {
             let pass = match policy.gate_for(o.sensor.as_deref()) {
+                _ if !informative => true,
                 None => true,
                 Some(threshold) => {
                     // ν = b − A r, S = [b̂×] P [b̂×]ᵀ + σ² I (the MEKF's measurement model).
@@ -626,7 +649,9 @@ impl VehicleState {
     fn restart_from(&mut self, e: &Estimate, t_s: f64, policy: &Policy) -> Result<(), Rejection> {
         let f = policy.reinit_sigma_factor;
         let c = &e.covariance;
-        let sigma_att = e.sigma_att_rad().map(|s| (s * f).max(MIN_REINIT_SIGMA_RAD));
+        let sigma_att = e
+            .sigma_att_rad()
+            .map(|s| (s * f).clamp(MIN_REINIT_SIGMA_RAD, MAX_REINIT_SIGMA_RAD));
         let bias_sigma = Vector3::from_fn(|i, _| {
             (c[(i + 3, i + 3)].max(0.0).sqrt() * f).max(self.config.init_bias_sigma_rad_s[i])
         });
@@ -662,11 +687,7 @@ impl VehicleState {
                 return Ok(());
             };
             let e = filter.estimate();
-            let wide = Estimate {
-                covariance: e.covariance * policy.reinit_sigma_factor.powi(2),
-                ..e
-            };
-            self.restart_from(&wide, set.t_s, policy)?;
+            self.restart_from(&e, set.t_s, policy)?;
         }
         if let Slot::Tracking(filter) = &mut self.slot {
             filter
@@ -811,8 +832,19 @@ impl VehicleState {
             }
         }
         let bias = match req.bias {
-            Some(b) if b.iter().all(|x| x.is_finite()) => Vector3::new(b[0], b[1], b[2]),
-            Some(_) => return bad(RejectCode::NonFinite, "bias must be finite".into()),
+            Some(b) if !b.iter().all(|x| x.is_finite()) => {
+                return bad(RejectCode::NonFinite, "bias must be finite".into())
+            }
+            Some(b) if Vector3::from(b).norm() > policy.max_rate_rad_s => {
+                return bad(
+                    RejectCode::OutOfRange,
+                    format!(
+                        "|bias| must not exceed limits.max_rate_rad_s = {} rad/s",
+                        policy.max_rate_rad_s
+                    ),
+                )
+            }
+            Some(b) => Vector3::from(b),
             None => Vector3::zeros(),
         };
         let bias_sigma = match req.bias_sigma.map(|s| s.to_vector()) {
@@ -821,6 +853,15 @@ impl VehicleState {
             }
             Some(s) if !s.iter().all(|x| *x > 0.0) => {
                 return bad(RejectCode::BadSigma, "bias_sigma must be positive".into())
+            }
+            Some(s) if s.amax() > policy.max_rate_rad_s => {
+                return bad(
+                    RejectCode::OutOfRange,
+                    format!(
+                        "bias_sigma must not exceed limits.max_rate_rad_s = {} rad/s",
+                        policy.max_rate_rad_s
+                    ),
+                )
             }
             Some(s) => s,
             None => config.init_bias_sigma_rad_s,

@@ -298,7 +298,7 @@ impl ObservationMsg {
             }
         }
         if let Some(s) = &self.sensor {
-            if s.is_empty() || s.len() > MAX_SENSOR_NAME {
+            if s.is_empty() || s.chars().count() > MAX_SENSOR_NAME {
                 return Err(Rejection::new(
                     RejectCode::BadRequest,
                     format!("obs[{index}].sensor must be 1-{MAX_SENSOR_NAME} characters"),
@@ -369,7 +369,8 @@ fn decode_value(payload: &[u8], limits: &InputLimits) -> Result<serde_json::Valu
 fn shape_error(e: serde_json::Error, at: Option<usize>) -> Rejection {
     let place = at.map(|i| format!("batch item {i}: ")).unwrap_or_default();
     let message = e.to_string();
-    let code = if message.contains("null") && message.contains("f64") {
+    // `null` where a number belongs is how many encoders write NaN.
+    let code = if message.starts_with("invalid type: null, expected f64") {
         RejectCode::NonFinite
     } else {
         RejectCode::BadRequest
@@ -382,7 +383,33 @@ pub fn decode_one<T: serde::de::DeserializeOwned>(
     payload: &[u8],
     limits: &InputLimits,
 ) -> Result<T, Rejection> {
-    serde_json::from_value(decode_value(payload, limits)?).map_err(|e| shape_error(e, None))
+    let v = decode_value(payload, limits)?;
+    objects_only(&v, None)?;
+    serde_json::from_value(v).map_err(|e| shape_error(e, None))
+}
+
+/// Every message and nested record (`obs[]`, `q`) is a JSON object. (serde's derived structs would
+/// also take an array of the fields in order, which the contract does not allow.)
+fn objects_only(v: &serde_json::Value, index: Option<usize>) -> Result<(), Rejection> {
+    let at = |what: &str| match index {
+        Some(i) => format!("batch item {i}: {what} must be a JSON object"),
+        None => format!("{what} must be a JSON object"),
+    };
+    let Some(map) = v.as_object() else {
+        return Err(Rejection::new(RejectCode::BadRequest, at("the message")));
+    };
+    if let Some(serde_json::Value::Array(obs)) = map.get("obs") {
+        if let Some(k) = obs.iter().position(|o| !o.is_object()) {
+            return Err(Rejection::new(
+                RejectCode::BadRequest,
+                at(&format!("obs[{k}]")),
+            ));
+        }
+    }
+    if map.get("q").is_some_and(|q| q.is_array()) {
+        return Err(Rejection::new(RejectCode::BadRequest, at("q")));
+    }
+    Ok(())
 }
 
 /// Decodes a payload that holds one item or a JSON array of them (a batch), checking size and UTF-8
@@ -409,12 +436,18 @@ pub fn decode_batch<T: serde::de::DeserializeOwned>(
             items
                 .into_iter()
                 .enumerate()
-                .map(|(i, v)| serde_json::from_value(v).map_err(|e| shape_error(e, Some(i))))
+                .map(|(i, v)| {
+                    objects_only(&v, Some(i))?;
+                    serde_json::from_value(v).map_err(|e| shape_error(e, Some(i)))
+                })
                 .collect()
         }
-        v => Ok(vec![
-            serde_json::from_value(v).map_err(|e| shape_error(e, None))?
-        ]),
+        v => {
+            objects_only(&v, None)?;
+            Ok(vec![
+                serde_json::from_value(v).map_err(|e| shape_error(e, None))?
+            ])
+        }
     }
 }
 

@@ -1,0 +1,713 @@
+//! The table of bad inputs (`proto/bad-inputs.json`, readable in `proto/BAD_INPUTS.md`) against an
+//! in-process [`Engine`] (no network):
+//!
+//! * the markdown table and the JSON agree row by row;
+//! * every [`RejectCode`] an input or a reset can produce has at least one row ([`NOT_FROM_INPUTS`]
+//!   lists, with the reason, the codes that cannot);
+//! * every row, fed to an engine whose healthy vehicle is tracking, gives exactly one rejection with the
+//!   row's code and a message, adds one to that code's health counter and to nothing else, and leaves
+//!   the healthy vehicle's estimate, its counters and (checked with a probe measurement against a vehicle
+//!   that never saw the row) its filter exactly as they were.
+//!
+//! The setup and the checks are described once, in `proto/BAD_INPUTS.md` ("How a row is tested");
+//! `tests/python/test_bad_inputs.py` runs the same rows through the real binary over zenoh.
+//!
+//! Rows marked `known_issue` describe a behaviour the service gets wrong today: their check must fail
+//! (and this test fails when such a row starts to pass, so the marker is removed with the fix).
+
+use attitude_service::service::config::parse;
+use attitude_service::service::engine::{Engine, EngineThreads, Inbound, Sink};
+use attitude_service::wire::{
+    decode_one, ErrorMsg, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
+};
+use serde::Deserialize;
+use serde_json::{json, Map, Value};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Key prefix of the engines of this test.
+const PREFIX: &str = "bi";
+/// The vehicle that tracks while the rows are sent (and the target of rows without `vehicle`).
+const HEALTHY: &str = "healthy";
+/// Codes that no input and no reset request can produce, and why.
+const NOT_FROM_INPUTS: &[(RejectCode, &str)] = &[
+    (
+        RejectCode::UnknownVehicle,
+        "the error reply of a query (attitude, covariance, state) for a vehicle the service does not \
+         know; an input creates its vehicle, and a reset of an unknown vehicle creates it or says why not",
+    ),
+    (
+        RejectCode::Internal,
+        "a failure inside the service (e.g. a reset its vehicle's worker did not answer within 10 s), \
+         not something an input can be",
+    ),
+];
+
+/// Codes decided by the vehicle's filter, after the input's items were queued: the vehicle's
+/// `received` counts them (proto/BAD_INPUTS.md). Every other code is decided before the queue.
+const QUEUED_CODES: &[RejectCode] = &[
+    RejectCode::OutOfOrder,
+    RejectCode::Duplicate,
+    RejectCode::TimeJump,
+    RejectCode::NotInitialized,
+    RejectCode::FilterError,
+];
+
+fn proto_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("proto")
+}
+
+/// One row of `proto/bad-inputs.json`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Row {
+    id: String,
+    case: String,
+    leaf: String,
+    #[serde(default)]
+    vehicle: Option<String>,
+    #[serde(default)]
+    payload: Option<String>,
+    #[serde(default)]
+    payload_hex: Option<String>,
+    #[serde(default)]
+    payload_gen: Option<Value>,
+    /// Overrides of `service.limits`.
+    #[serde(default)]
+    config: Option<Map<String, Value>>,
+    code: String,
+    #[serde(default)]
+    known_issue: Option<String>,
+}
+
+impl Row {
+    fn target(&self) -> &str {
+        self.vehicle.as_deref().unwrap_or(HEALTHY)
+    }
+
+    fn is_reset(&self) -> bool {
+        self.leaf == "reset"
+    }
+
+    fn config(&self) -> Map<String, Value> {
+        self.config.clone().unwrap_or_default()
+    }
+
+    fn payload(&self) -> Vec<u8> {
+        match (&self.payload, &self.payload_hex, &self.payload_gen) {
+            (Some(p), None, None) => p.as_bytes().to_vec(),
+            (None, Some(h), None) => unhex(h),
+            (None, None, Some(g)) => generate(g),
+            _ => panic!(
+                "{}: exactly one of payload, payload_hex, payload_gen",
+                self.id
+            ),
+        }
+    }
+}
+
+fn rows() -> Vec<Row> {
+    let text = std::fs::read_to_string(proto_dir().join("bad-inputs.json")).unwrap();
+    let rows: Vec<Row> =
+        serde_json::from_str(&text).expect("proto/bad-inputs.json: an array of rows");
+    let mut ids = BTreeSet::new();
+    for r in &rows {
+        assert!(ids.insert(r.id.clone()), "duplicate row id {}", r.id);
+        assert!(
+            !r.id.is_empty()
+                && r.id
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-'),
+            "row id {:?}: lower case, digits and '-'",
+            r.id
+        );
+        assert!(
+            !r.case.is_empty() && !r.case.contains('|'),
+            "{}: case",
+            r.id
+        );
+        assert!(
+            ["gyro", "vectors", "reset"].contains(&r.leaf.as_str()),
+            "{}: leaf {:?} (gyro, vectors, reset)",
+            r.id,
+            r.leaf
+        );
+        assert!(
+            code_of(&r.code).is_some(),
+            "{}: unknown code {:?}",
+            r.id,
+            r.code
+        );
+        let _ = r.payload();
+    }
+    rows
+}
+
+fn code_of(s: &str) -> Option<RejectCode> {
+    RejectCode::ALL.iter().copied().find(|c| c.as_str() == s)
+}
+
+fn unhex(h: &str) -> Vec<u8> {
+    assert!(h.len() % 2 == 0, "odd hex length: {h}");
+    (0..h.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&h[i..i + 2], 16).expect("hex"))
+        .collect()
+}
+
+/// The observations of the setup (consistent with the identity attitude).
+const OBS: [&str; 2] = [
+    r#"{"body": [1, 0, 0], "ref": [1, 0, 0], "sigma": 0.0001}"#,
+    r#"{"body": [0, 1, 0], "ref": [0, 1, 0], "sigma": 0.0001}"#,
+];
+
+fn gyro(t: f64) -> String {
+    format!(r#"{{"t": {t:?}, "omega": [0, 0, 0]}}"#)
+}
+
+fn vectors(t: f64) -> String {
+    format!(r#"{{"t": {t:?}, "obs": [{}, {}]}}"#, OBS[0], OBS[1])
+}
+
+/// `payload_gen` (the rules are in proto/BAD_INPUTS.md).
+fn generate(g: &Value) -> Vec<u8> {
+    let num = |k: &str| {
+        g[k].as_f64()
+            .unwrap_or_else(|| panic!("payload_gen {g}: {k}"))
+    };
+    let n = || num("n") as usize;
+    let text = match g["kind"].as_str() {
+        Some("pad") => {
+            let mut s = g["base"].as_str().expect("pad: base").to_string();
+            let bytes = num("bytes") as usize;
+            assert!(bytes >= s.len(), "pad: bytes < base");
+            s.push_str(&" ".repeat(bytes - s.len()));
+            s
+        }
+        Some("gyro_batch") => {
+            let (t0, dt) = (num("t0"), num("dt"));
+            let items: Vec<String> = (0..n()).map(|i| gyro(t0 + i as f64 * dt)).collect();
+            format!("[{}]", items.join(", "))
+        }
+        Some("vectors_batch") => {
+            let (t0, dt) = (num("t0"), num("dt"));
+            let items: Vec<String> = (0..n()).map(|i| vectors(t0 + i as f64 * dt)).collect();
+            format!("[{}]", items.join(", "))
+        }
+        Some("obs") => {
+            let obs: Vec<&str> = (0..n()).map(|i| OBS[i % 2]).collect();
+            format!(r#"{{"t": {:?}, "obs": [{}]}}"#, num("t"), obs.join(", "))
+        }
+        Some("nest") => {
+            let d = num("depth") as usize;
+            format!("{}{}", "[".repeat(d), "]".repeat(d))
+        }
+        _ => panic!("unknown payload_gen {g}"),
+    };
+    text.into_bytes()
+}
+
+// ------------------------------------------------------------------------------------------------
+// (a) and (b)
+
+#[test]
+fn markdown_table_and_json_agree() {
+    let rows = rows();
+    let md = std::fs::read_to_string(proto_dir().join("BAD_INPUTS.md")).unwrap();
+    let section = |title: &str| -> Vec<String> {
+        let start = md
+            .find(&format!("\n## {title}\n"))
+            .unwrap_or_else(|| panic!("proto/BAD_INPUTS.md has a section ## {title}"));
+        let rest = &md[start + title.len() + 5..];
+        let end = rest.find("\n## ").unwrap_or(rest.len());
+        rest[..end].lines().map(str::to_string).collect()
+    };
+    let table: Vec<String> = section("Rows")
+        .into_iter()
+        .filter(|l| l.starts_with("| `"))
+        .collect();
+    let expected: Vec<String> = rows
+        .iter()
+        .map(|r| format!("| `{}` | {} | `{}` | `{}` |", r.id, r.case, r.leaf, r.code))
+        .collect();
+    let mut problems = vec![];
+    for (i, want) in expected.iter().enumerate() {
+        match table.get(i) {
+            Some(got) if got == want => {}
+            Some(got) => problems.push(format!("line {}: has\n  {got}\nwant\n  {want}", i + 1)),
+            None => problems.push(format!("missing line {}:\n  {want}", i + 1)),
+        }
+    }
+    for extra in table.iter().skip(expected.len()) {
+        problems.push(format!("a line without a JSON row:\n  {extra}"));
+    }
+    let known: Vec<String> = section("Known issues")
+        .into_iter()
+        .filter(|l| l.starts_with("* `"))
+        .collect();
+    let want_known: Vec<String> = rows
+        .iter()
+        .filter_map(|r| r.known_issue.as_ref().map(|k| format!("* `{}`: {k}", r.id)))
+        .collect();
+    if known != want_known {
+        problems.push(format!(
+            "## Known issues has\n{}\nwant\n{}",
+            known.join("\n"),
+            want_known.join("\n")
+        ));
+    }
+    assert!(
+        problems.is_empty(),
+        "proto/BAD_INPUTS.md and proto/bad-inputs.json disagree:\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn every_input_code_has_a_row() {
+    let rows = rows();
+    let used: BTreeSet<&str> = rows.iter().map(|r| r.code.as_str()).collect();
+    let mut problems = vec![];
+    for code in RejectCode::ALL {
+        let excused = NOT_FROM_INPUTS.iter().any(|(c, _)| *c == code);
+        match (used.contains(code.as_str()), excused) {
+            (false, false) => problems.push(format!(
+                "no row of proto/bad-inputs.json has code `{}`: add one (and its line in proto/BAD_INPUTS.md), \
+                 or list the code in NOT_FROM_INPUTS with the reason no input can produce it",
+                code.as_str()
+            )),
+            (true, true) => problems.push(format!(
+                "`{}` is in NOT_FROM_INPUTS but a row produces it",
+                code.as_str()
+            )),
+            _ => {}
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+// ------------------------------------------------------------------------------------------------
+// (c) every row against an engine
+
+type Outputs = Arc<Mutex<Vec<(String, Vec<u8>)>>>;
+
+/// An engine with a sink that collects `(key, payload)`.
+struct Run {
+    engine: Arc<Engine>,
+    threads: Option<EngineThreads>,
+    out: Outputs,
+}
+
+impl Run {
+    /// A configuration file as the service reads it: the MEKF, default limits but `limits`.
+    fn start(limits: &Map<String, Value>) -> Run {
+        let text = json!({
+            "service": {
+                "key_prefix": PREFIX,
+                "filter": {"kind": "mekf"},
+                "workers": 2,
+                "limits": limits,
+            }
+        })
+        .to_string();
+        let config = parse(&text, "bad-inputs")
+            .expect("the row's config")
+            .service;
+        let out: Outputs = Arc::new(Mutex::new(Vec::new()));
+        let o = out.clone();
+        let sink: Sink = Arc::new(move |key: &str, payload: Vec<u8>| {
+            o.lock().unwrap().push((key.to_string(), payload))
+        });
+        let (engine, threads) = Engine::start(config, sink).expect("engine starts");
+        Run {
+            engine,
+            threads: Some(threads),
+            out,
+        }
+    }
+
+    fn put(&self, vehicle: &str, leaf: &str, payload: impl Into<Vec<u8>>) {
+        self.engine.dispatch(Inbound {
+            key: format!("{PREFIX}/{vehicle}/{leaf}"),
+            payload: payload.into(),
+        });
+    }
+
+    fn outputs(&self) -> Vec<(String, Vec<u8>)> {
+        self.out.lock().unwrap().clone()
+    }
+
+    fn rejections_since(&self, n: usize) -> Vec<(String, ErrorMsg)> {
+        self.outputs()
+            .into_iter()
+            .skip(n)
+            .filter(|(k, _)| k.ends_with("/rejected"))
+            .map(|(k, p)| {
+                (
+                    k,
+                    serde_json::from_slice(&p).expect("a rejection is an ErrorMsg"),
+                )
+            })
+            .collect()
+    }
+
+    fn wait(&self, timeout: Duration, mut done: impl FnMut(&Run) -> bool) -> bool {
+        let deadline = Instant::now() + timeout;
+        while !done(self) {
+            if Instant::now() > deadline {
+                return false;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        true
+    }
+
+    fn estimate(&self) -> Option<EstimateMsg> {
+        self.engine.state_of(HEALTHY).ok().map(|e| (*e).clone())
+    }
+
+    /// The healthy vehicle of the setup: tracking, its time 1.5 s, its estimate at 1 s with seq 2.
+    fn init_healthy(&self) {
+        self.put(HEALTHY, "gyro", gyro(0.0));
+        self.put(HEALTHY, "vectors", vectors(0.0));
+        for i in 1..=10 {
+            self.put(HEALTHY, "gyro", gyro(i as f64 / 10.0));
+        }
+        self.put(HEALTHY, "vectors", vectors(1.0));
+        self.put(HEALTHY, "gyro", gyro(1.5));
+        let ok = self.wait(Duration::from_secs(10), |r| {
+            r.estimate().is_some_and(|e| e.seq == 2)
+                && r.engine.vehicle(HEALTHY).is_some_and(|v| {
+                    let i = v.info();
+                    i.processed == 14 && i.t == Some(1.5)
+                })
+        });
+        assert!(
+            ok,
+            "the healthy vehicle did not start: {:?}",
+            self.rejections_since(0)
+        );
+        assert!(self.rejections_since(0).is_empty());
+    }
+
+    /// A gyro sample and a vector set at t = 3 s; the estimate they give.
+    fn probe(&self) -> Result<EstimateMsg, String> {
+        self.put(HEALTHY, "gyro", gyro(3.0));
+        self.put(HEALTHY, "vectors", vectors(3.0));
+        if self.wait(Duration::from_secs(10), |r| {
+            r.estimate().is_some_and(|e| e.t == 3.0)
+        }) {
+            Ok(self.estimate().unwrap())
+        } else {
+            Err(format!(
+                "the probe gave no estimate at t = 3 (estimate {:?})",
+                self.estimate().map(|e| (e.t, e.seq))
+            ))
+        }
+    }
+
+    /// What the service's reset queryable does (`service::run`'s `reset`): a concrete vehicle, the payload
+    /// decoded with the input limits, `Engine::request_reset`, the worker's answer; a refusal is counted.
+    fn reset(&self, vehicle: &str, payload: &[u8]) -> Result<ResetReplyMsg, Rejection> {
+        let key = format!("{PREFIX}/{vehicle}/reset");
+        let result = (|| {
+            let (v, _) = self
+                .engine
+                .keys
+                .split(&key)
+                .filter(|(v, _)| !v.contains(['*', '$']))
+                .ok_or_else(|| {
+                    Rejection::new(RejectCode::BadRequest, "reset one vehicle at a time")
+                })?;
+            let req: ResetMsg = if payload.is_empty() {
+                ResetMsg::default()
+            } else {
+                decode_one(payload, &self.engine.config.limits.input)?
+            };
+            let mut rx = self.engine.request_reset(v, req)?;
+            let deadline = Instant::now() + Duration::from_secs(10);
+            loop {
+                match rx.try_recv() {
+                    Ok(r) => return r,
+                    Err(tokio::sync::oneshot::error::TryRecvError::Empty)
+                        if Instant::now() < deadline =>
+                    {
+                        std::thread::sleep(Duration::from_micros(200))
+                    }
+                    Err(_) => {
+                        return Err(Rejection::new(
+                            RejectCode::Internal,
+                            "no answer to the reset",
+                        ))
+                    }
+                }
+            }
+        })();
+        if let Err(r) = &result {
+            self.engine.counters.reject(r.code);
+        }
+        result
+    }
+
+    /// Stops the threads after processing everything accepted.
+    fn shutdown(&mut self) {
+        if let Some(t) = self.threads.take() {
+            t.shutdown();
+        }
+    }
+}
+
+impl Drop for Run {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// The probe's estimate on a vehicle that never saw a bad input.
+fn baseline(limits: &Map<String, Value>) -> EstimateMsg {
+    let mut run = Run::start(limits);
+    run.init_healthy();
+    let e = run.probe().expect("the baseline probe");
+    run.shutdown();
+    e
+}
+
+fn without_rejected(e: &EstimateMsg) -> EstimateMsg {
+    let mut e = e.clone();
+    e.diagnostics.rejected.clear();
+    // The bookkeeping of a refused input is not filter state: a rolled-back step is counted, and the
+    // gate saw its observations before the update failed.
+    e.diagnostics.rollbacks = 0;
+    e.diagnostics.gate.clear();
+    e
+}
+
+/// Runs one row; returns what did not hold.
+fn check(row: &Row, baselines: &mut HashMap<String, EstimateMsg>) -> Vec<String> {
+    let limits = row.config();
+    let key = Value::Object(limits.clone()).to_string();
+    let base = baselines
+        .entry(key)
+        .or_insert_with(|| baseline(&limits))
+        .clone();
+    let code = row.code.as_str();
+    let target = row.target();
+    let mut run = Run::start(&limits);
+    run.init_healthy();
+
+    let s0 = run.estimate().expect("tracking");
+    let info0 = run.engine.vehicle(HEALTHY).unwrap().info();
+    let h0 = run.engine.health();
+    let existed = run.engine.vehicle(target).is_some();
+    let n0 = run.outputs().len();
+    let mut fails = vec![];
+
+    if row.is_reset() {
+        match run.reset(target, &row.payload()) {
+            Ok(reply) => fails.push(format!(
+                "the reset was accepted: state {}, filter {}",
+                reply.state, reply.filter
+            )),
+            Err(r) => {
+                if r.code.as_str() != code {
+                    fails.push(format!(
+                        "reset refused with {} ({}), not {code}",
+                        r.code.as_str(),
+                        r.message
+                    ));
+                }
+                if r.message.is_empty() {
+                    fails.push("empty message".into());
+                }
+            }
+        }
+    } else {
+        run.put(target, &row.leaf, row.payload());
+        let timeout = Duration::from_secs(if row.known_issue.is_some() { 1 } else { 10 });
+        run.wait(timeout, |r| !r.rejections_since(n0).is_empty());
+    }
+
+    // Right after the row: the healthy vehicle's estimate, its row, the counters.
+    let s1 = run.estimate();
+    let info1 = run.engine.vehicle(HEALTHY).unwrap().info();
+    let h1 = run.engine.health();
+    if s1.as_ref() != Some(&s0) {
+        fails.push(format!(
+            "the healthy vehicle's estimate changed: t {} seq {} -> {:?}",
+            s0.t,
+            s0.seq,
+            s1.map(|e| (e.t, e.seq))
+        ));
+    }
+    let own_input = target == HEALTHY && !row.is_reset();
+    let want_rejected = info0.rejected + u64::from(own_input);
+    // The rows' inputs that reach the filter are single items.
+    let queued = code_of(code).is_some_and(|c| QUEUED_CODES.contains(&c));
+    let want_received = info0.received + u64::from(own_input && queued);
+    if (
+        info1.t,
+        info1.received,
+        info1.processed,
+        info1.rejected,
+        &info1.state,
+        &info1.filter,
+    ) != (
+        info0.t,
+        want_received,
+        info0.processed,
+        want_rejected,
+        &info0.state,
+        &info0.filter,
+    ) {
+        fails.push(format!(
+            "the healthy vehicle's P/@/vehicles row: t {:?} received {} processed {} rejected {} {} {} -> \
+             t {:?} received {} processed {} rejected {} {} {} (want received {want_received}, \
+             rejected {want_rejected}; a code decided by the filter after the queue belongs in QUEUED_CODES)",
+            info0.t, info0.received, info0.processed, info0.rejected, info0.state, info0.filter,
+            info1.t, info1.received, info1.processed, info1.rejected, info1.state, info1.filter,
+        ));
+    }
+    let delta: BTreeMap<&String, i64> = h0
+        .rejected
+        .keys()
+        .chain(h1.rejected.keys())
+        .map(|k| {
+            let d =
+                *h1.rejected.get(k).unwrap_or(&0) as i64 - *h0.rejected.get(k).unwrap_or(&0) as i64;
+            (k, d)
+        })
+        .filter(|(_, d)| *d != 0)
+        .collect();
+    let want_delta: BTreeMap<&String, i64> = [(&row.code, 1)].into_iter().collect();
+    if delta != want_delta {
+        fails.push(format!(
+            "P/@/health rejected grew by {delta:?}, want {{{code}: 1}}"
+        ));
+    }
+    if target != HEALTHY
+        && !existed
+        && code != "not_initialized"
+        && run.engine.vehicle(target).is_some()
+    {
+        fails.push(format!("the refused input created vehicle {target}"));
+    }
+
+    // The probe: the filter is the one a vehicle that never saw the row has.
+    match run.probe() {
+        Ok(p) => {
+            if without_rejected(&p) != without_rejected(&base) {
+                fails.push(format!(
+                    "the probe's estimate differs from a vehicle that never saw the row: seq {} vs {}, \
+                     t {} vs {}, q {:?} vs {:?}, diagnostics {:?} vs {:?}",
+                    p.seq, base.seq, p.t, base.t, p.q, base.q, p.diagnostics, base.diagnostics
+                ));
+            }
+            let want: BTreeMap<String, u64> = if own_input {
+                [(row.code.clone(), 1)].into_iter().collect()
+            } else {
+                BTreeMap::new()
+            };
+            if p.diagnostics.rejected != want {
+                fails.push(format!(
+                    "diagnostics.rejected of the probe's estimate is {:?}, want {want:?}",
+                    p.diagnostics.rejected
+                ));
+            }
+        }
+        Err(e) => fails.push(e),
+    }
+    run.shutdown();
+
+    // Everything published since the row (the threads have stopped: nothing more comes).
+    let rejections = run.rejections_since(n0);
+    if row.is_reset() {
+        if !rejections.is_empty() {
+            fails.push(format!("a reset published rejections: {rejections:?}"));
+        }
+    } else {
+        let input_key = format!("{PREFIX}/{target}/{}", row.leaf);
+        match rejections.as_slice() {
+            [(k, m)] => {
+                if *k != format!("{PREFIX}/{target}/rejected") {
+                    fails.push(format!("rejection published on {k}"));
+                }
+                if m.code != code {
+                    fails.push(format!(
+                        "rejected with {} ({}), not {code}",
+                        m.code, m.message
+                    ));
+                }
+                if m.message.is_empty() {
+                    fails.push("empty message".into());
+                }
+                if m.key != input_key {
+                    fails.push(format!("the rejection's key is {}, not {input_key}", m.key));
+                }
+            }
+            other => fails.push(format!(
+                "{} rejections, want exactly one: {:?}",
+                other.len(),
+                other
+                    .iter()
+                    .map(|(_, m)| (&m.code, &m.message))
+                    .collect::<Vec<_>>()
+            )),
+        }
+    }
+    fails
+}
+
+#[test]
+fn every_row_is_refused_counted_and_changes_nothing() {
+    let rows = rows();
+    let only = std::env::var("BAD_INPUTS_ROW").ok();
+    let mut baselines = HashMap::new();
+    let mut problems = vec![];
+    let mut known = 0;
+    let t0 = Instant::now();
+    for row in rows
+        .iter()
+        .filter(|r| only.as_ref().is_none_or(|o| *o == r.id))
+    {
+        let started = Instant::now();
+        let fails = check(row, &mut baselines);
+        let took = started.elapsed().as_secs_f64() * 1e3;
+        match (&row.known_issue, fails.is_empty()) {
+            (None, true) => println!("ok    {:45} {:20} {took:7.1} ms", row.id, row.code),
+            (None, false) => {
+                println!("FAIL  {:45} {:20} {took:7.1} ms", row.id, row.code);
+                problems.push(format!("{} ({}): {}", row.id, row.case, fails.join("; ")));
+            }
+            (Some(_), false) => {
+                known += 1;
+                println!(
+                    "known {:45} {:20} {took:7.1} ms: {}",
+                    row.id,
+                    row.code,
+                    fails.join("; ")
+                );
+            }
+            (Some(issue), true) => {
+                println!("FIXED {:45} {:20} {took:7.1} ms", row.id, row.code);
+                problems.push(format!(
+                    "{} passes now: remove its known_issue ({issue}) from proto/bad-inputs.json and \
+                     proto/BAD_INPUTS.md",
+                    row.id
+                ));
+            }
+        }
+    }
+    println!(
+        "{} rows in {:.1} s ({known} known issues)",
+        rows.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    assert!(
+        problems.is_empty(),
+        "{} rows failed:\n{}",
+        problems.len(),
+        problems.join("\n")
+    );
+}
