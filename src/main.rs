@@ -60,6 +60,12 @@ enum Command {
     /// throughput, put→estimate latency percentiles and losses. --echo measures a bare zenoh round
     /// trip through a trivial echo the same way (the baseline).
     Loadgen(LoadgenArgs),
+    /// Soak (not run in CI): starts `serve` as a child process with the chosen filter for every
+    /// vehicle, streams gyro and vector messages for N vehicles in real time, and per window records
+    /// the service's resident memory, put→estimate latency p50/p99/max, estimates received against
+    /// vector messages sent, and rejections; ends with the first window against the last and the
+    /// child's exit status after SIGTERM.
+    Soak(SoakArgs),
 }
 
 #[derive(Args)]
@@ -259,6 +265,28 @@ struct LoadgenArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct SoakArgs {
+    /// Vehicles (ids soak1, soak2, ...).
+    #[arg(long, default_value_t = 30)]
+    vehicles: usize,
+    /// Gyro and vector messages per vehicle per second (each).
+    #[arg(long, default_value_t = 10.0)]
+    rate: f64,
+    /// Run length in minutes; fractions allowed (0.2 = 12 s). The run is cut into
+    /// max(2, ceil(minutes)) equal windows: one per minute for whole minutes, never longer than
+    /// 60 s, and always at least two so that the first and the last can be compared.
+    #[arg(long, default_value_t = 10.0)]
+    minutes: f64,
+    /// The filter of every vehicle: mekf, usque[:average|:propagated], qpf[:average|:propagated]
+    /// (the service's default 1000 particles).
+    #[arg(long, default_value = "qpf")]
+    filter: FilterSpec,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
@@ -277,6 +305,7 @@ fn main() -> Result<()> {
             Ok(())
         }
         Command::Loadgen(args) => runtime()?.block_on(loadgen_cmd(args)),
+        Command::Soak(args) => runtime()?.block_on(soak_cmd(args)),
         Command::Scenarios => {
             for name in ScenarioName::ALL {
                 println!("{}\n", ScenarioParams::default_for(name).describe());
@@ -733,6 +762,35 @@ async fn loadgen_cmd(args: LoadgenArgs) -> Result<()> {
         let _ = client.close().await;
         (r, None)
     };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print!("{}", report.table());
+    }
+    Ok(())
+}
+
+async fn soak_cmd(args: SoakArgs) -> Result<()> {
+    init_logging();
+    let options = attitude_service::tools::soak::SoakOptions {
+        vehicles: args.vehicles,
+        rate_hz: args.rate,
+        minutes: args.minutes,
+        filter: args.filter,
+        exe: std::env::current_exe().context("locating this binary")?,
+    };
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let i = interrupted.clone();
+        tokio::spawn(async move {
+            shutdown_signal().await;
+            i.store(true, Ordering::Relaxed);
+        });
+    }
+    let report =
+        attitude_service::tools::soak::run(&options, || interrupted.load(Ordering::Relaxed))
+            .await
+            .map_err(|e| anyhow::anyhow!("soak: {e}"))?;
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

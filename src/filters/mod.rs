@@ -7,7 +7,9 @@
 //! with a set of observations, report its estimate).
 //!
 //! Contract of [`FilterCore`]: a method that returns `Err` leaves the filter exactly as it was, so a bad
-//! input or a numerical failure never poisons the state.
+//! input or a numerical failure never poisons the state. [`AttitudeFilter::process`] propagates to the
+//! measurement's time before it updates: when the update is refused, the filter stays propagated to
+//! that time (a valid state; the input is not used).
 
 pub mod mekf;
 pub mod qpf;
@@ -451,7 +453,16 @@ fn check_finite(values: impl IntoIterator<Item = f64>, what: &str) -> Result<(),
 pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
     check_finite([measurement.t_s()], "time")?;
     match measurement {
-        Measurement::Gyro(g) => check_finite(g.omega_body_rad_s.iter().copied(), "gyro rate"),
+        Measurement::Gyro(g) => {
+            check_finite(g.omega_body_rad_s.iter().copied(), "gyro rate")?;
+            // Beyond this a rotation angle's square overflows; no gyro measures anything near it.
+            if g.omega_body_rad_s.amax() > MAX_RATE_RAD_S {
+                return Err(FilterError::InvalidMeasurement(format!(
+                    "gyro rate above {MAX_RATE_RAD_S:e} rad/s"
+                )));
+            }
+            Ok(())
+        }
         Measurement::Vectors(set) => {
             for (i, o) in set.observations.iter().enumerate() {
                 check_finite(o.body.iter().copied(), "body vector")?;
@@ -524,12 +535,25 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
     }
 }
 
+/// Largest gyro rate a filter takes, rad/s.
+pub const MAX_RATE_RAD_S: f64 = 1e100;
+
 /// Builds a filter behind the shared interface. `seed` seeds the filter's own RNG (sampling filters).
 pub fn build_filter(
     config: &FilterConfig,
     initial: &InitialState,
     seed: u64,
 ) -> Result<Box<dyn AttitudeFilter>, FilterError> {
+    // Variances are squares of these: they must stay finite.
+    let sane = |v: &Vector3<f64>| v.iter().all(|x| (x * x).is_finite());
+    if !sane(&initial.sigma_att_rad)
+        || !sane(&initial.bias_sigma_rad_s)
+        || !sane(&initial.bias_rad_s)
+    {
+        return Err(FilterError::InvalidConfig(
+            "initial sigmas and bias must be finite with finite squares".into(),
+        ));
+    }
     match config.spec.kind {
         FilterKind::Mekf => Ok(Box::new(
             Driver::new(Mekf::new(config, initial)?, initial.t_s)

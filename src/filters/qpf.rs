@@ -743,7 +743,11 @@ fn cloud_moments(
     let mut k = 0;
     for r in 0..6 {
         for col in r..6 {
-            let v = sq[k] - sum[r] * sum[col];
+            let mut v = sq[k] - sum[r] * sum[col];
+            if r == col {
+                // One pass: for a collapsed cloud the difference can round below zero.
+                v = v.max(0.0);
+            }
             cov[(r, col)] = v;
             cov[(col, r)] = v;
             k += 1;

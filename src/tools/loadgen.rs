@@ -51,12 +51,14 @@ pub struct LoadReport {
     pub send_lag_max_ms: f64,
 }
 
+/// The time stamp of an estimate, the only field the load generators read.
 #[derive(serde::Deserialize)]
-struct JustT {
-    t: f64,
+pub struct JustT {
+    pub t: f64,
 }
 
-fn time_key(t: f64) -> i64 {
+/// Matches an estimate to its vector message by time stamp (µs).
+pub fn time_key(t: f64) -> i64 {
     (t * 1e6).round() as i64
 }
 
@@ -84,7 +86,8 @@ pub async fn echo(
         .await
 }
 
-fn star_set(t: f64, i: usize) -> VectorsMsg {
+/// Vehicle `i`'s vector set at `t`: three exact star directions at a fixed attitude.
+pub fn star_set(t: f64, i: usize) -> VectorsMsg {
     // A fixed attitude per vehicle (a rotation about z by i·0.01 rad): A = R3(a).
     let a = i as f64 * 0.01;
     let (c, s) = (a.cos(), a.sin());
@@ -103,7 +106,8 @@ fn star_set(t: f64, i: usize) -> VectorsMsg {
     }
 }
 
-async fn probe(
+/// Sends vector sets for `<vehicle_prefix>0` until its first estimate comes back (at most 10 s).
+pub async fn probe(
     session: &zenoh::Session,
     keys: &Keys,
     vehicle_prefix: &str,

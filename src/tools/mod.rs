@@ -6,3 +6,4 @@ pub mod demo;
 pub mod imu_bench;
 pub mod loadgen;
 pub mod simulate;
+pub mod soak;

@@ -200,14 +200,18 @@ class Hostile:
         if kind == "stale":
             return dumps(base), ["out_of_order"]
         if kind == "stale_wild":
-            # Extreme but valid values: the wire accepts them, the filter refuses the stale time first.
+            # Extreme finite values: beyond the physical ranges (a rate above limits.max_rate_rad_s =
+            # 100 rad/s, a vector or sigma above 1e100) they are refused on arrival as out_of_range;
+            # within them, the stale time is refused.
             if leaf == "gyro":
-                base["omega"] = [rng.choice([1e308, -1e308, -0.0, 5e-324, 1e30]) for _ in range(3)]
+                base["omega"] = [rng.choice([1e308, -1e308, -0.0, 5e-324, 1e30, 1.0]) for _ in range(3)]
+                wild = math.sqrt(sum(x * x for x in base["omega"])) > 100.0
             else:
                 for o in base["obs"]:
                     o["sigma"] = rng.choice([1e300, 1e-300, 5e-324])
-                    o["body"] = [x * 1e200 for x in o["body"]]
-            return dumps(base), ["out_of_order"]
+                    o["body"] = [x * rng.choice([1e200, 1.0]) for x in o["body"]]
+                wild = any(o["sigma"] > 1e100 or max(abs(x) for x in o["body"]) > 1e100 for o in base["obs"])
+            return dumps(base), ["out_of_range" if wild else "out_of_order"]
         if kind == "batch_stale":
             items = [item(rng, leaf, stale_t - 0.01 * i) for i in range(rng.randint(2, 5))]
             return dumps(items), ["out_of_order"] * len(items)
