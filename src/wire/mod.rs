@@ -388,6 +388,38 @@ pub fn decode_one<T: serde::de::DeserializeOwned>(
     serde_json::from_value(v).map_err(|e| shape_error(e, None))
 }
 
+/// `null` is refused wherever it stands, also in optional fields (the schemas say so): where a number
+/// belongs it is `non_finite` (how many encoders write NaN), elsewhere `bad_request`.
+fn no_nulls(
+    map: &serde_json::Map<String, serde_json::Value>,
+    index: Option<usize>,
+) -> Result<(), Rejection> {
+    use serde_json::Value;
+    let place = index.map(|i| format!("batch item {i}: ")).unwrap_or_default();
+    for (k, v) in map {
+        let code = match k.as_str() {
+            "filter" | "fiducial" | "sensor" | "q" | "obs" => RejectCode::BadRequest,
+            _ => RejectCode::NonFinite,
+        };
+        let null = |what: String| Err(Rejection::new(code, format!("{place}{what} is null")));
+        match v {
+            Value::Null => return null(k.clone()),
+            Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    match item {
+                        Value::Null => return null(format!("{k}[{i}]")),
+                        Value::Object(m) => no_nulls(m, index)?,
+                        _ => {}
+                    }
+                }
+            }
+            Value::Object(m) => no_nulls(m, index)?,
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Every message and nested record (`obs[]`, `q`) is a JSON object. (serde's derived structs would
 /// also take an array of the fields in order, which the contract does not allow.)
 fn objects_only(v: &serde_json::Value, index: Option<usize>) -> Result<(), Rejection> {
@@ -398,6 +430,7 @@ fn objects_only(v: &serde_json::Value, index: Option<usize>) -> Result<(), Rejec
     let Some(map) = v.as_object() else {
         return Err(Rejection::new(RejectCode::BadRequest, at("the message")));
     };
+    no_nulls(map, index)?;
     if let Some(serde_json::Value::Array(obs)) = map.get("obs") {
         if let Some(k) = obs.iter().position(|o| !o.is_object()) {
             return Err(Rejection::new(
