@@ -395,7 +395,9 @@ fn no_nulls(
     index: Option<usize>,
 ) -> Result<(), Rejection> {
     use serde_json::Value;
-    let place = index.map(|i| format!("batch item {i}: ")).unwrap_or_default();
+    let place = index
+        .map(|i| format!("batch item {i}: "))
+        .unwrap_or_default();
     for (k, v) in map {
         let code = match k.as_str() {
             "filter" | "fiducial" | "sensor" | "q" | "obs" => RejectCode::BadRequest,
