@@ -399,17 +399,22 @@ fn no_nulls(
         .map(|i| format!("batch item {i}: "))
         .unwrap_or_default();
     for (k, v) in map {
-        let code = match k.as_str() {
-            "filter" | "fiducial" | "sensor" | "q" | "obs" => RejectCode::BadRequest,
-            _ => RejectCode::NonFinite,
+        // A number field that is null is a NaN; a string, record or array that is null is a shape
+        // error; a null inside a numeric array is a NaN again.
+        let whole = match k.as_str() {
+            "t" | "sigma" | "particles" | "w" | "x" | "y" | "z" => RejectCode::NonFinite,
+            _ => RejectCode::BadRequest,
         };
-        let null = |what: String| Err(Rejection::new(code, format!("{place}{what} is null")));
+        let null = |code, what: String| Err(Rejection::new(code, format!("{place}{what} is null")));
         match v {
-            Value::Null => return null(k.clone()),
+            Value::Null => return null(whole, k.clone()),
             Value::Array(items) => {
                 for (i, item) in items.iter().enumerate() {
                     match item {
-                        Value::Null => return null(format!("{k}[{i}]")),
+                        Value::Null if k == "obs" => {
+                            return null(RejectCode::BadRequest, format!("{k}[{i}]"))
+                        }
+                        Value::Null => return null(RejectCode::NonFinite, format!("{k}[{i}]")),
                         Value::Object(m) => no_nulls(m, index)?,
                         _ => {}
                     }
