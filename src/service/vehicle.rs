@@ -128,8 +128,9 @@ pub struct VehicleState {
     last_gyro: Option<GyroSample>,
     /// The reorder window, sorted by time (arrival order among equal times).
     held: VecDeque<Held>,
-    /// Newest time accepted per stream.
+    /// Newest time accepted per stream, and the first time accepted at all.
     newest: [Option<f64>; 2],
+    first_t: Option<f64>,
     /// `(t, fingerprint)` of recently accepted samples per stream.
     recent: [VecDeque<(f64, u64)>; 2],
     jump: Option<JumpCandidate>,
@@ -207,6 +208,7 @@ impl VehicleState {
             last_gyro: None,
             held: VecDeque::new(),
             newest: [None, None],
+            first_t: None,
             recent: [VecDeque::new(), VecDeque::new()],
             jump: None,
             gate: BTreeMap::new(),
@@ -400,6 +402,7 @@ impl VehicleState {
         recent.push_back((t, fp));
         let n = &mut self.newest[stream as usize];
         *n = Some(n.map_or(t, |x| x.max(t)));
+        self.first_t.get_or_insert(t);
         let at = self.held.partition_point(|h| h.t_s <= t);
         self.held.insert(
             at,
@@ -426,15 +429,22 @@ impl VehicleState {
     fn release(&mut self, now_s: f64, policy: &Policy, all: bool, out: &mut Vec<Event>) {
         let window = policy.reorder_window_s;
         // Every stream seen has reached this time: nothing older can still come (each stream is in
-        // order on its own key).
-        let watermark = self
-            .newest
-            .iter()
-            .flatten()
-            .copied()
-            .reduce(f64::min)
-            .unwrap_or(f64::NEG_INFINITY);
+        // order on its own key). During the vehicle's first window a stream not seen yet may still
+        // start earlier, so it holds the others; after it, a vehicle without that stream (vectors
+        // only, say) does not wait for it.
         let newest = self.newest_any().unwrap_or(f64::NEG_INFINITY);
+        let starting = self.newest.iter().any(Option::is_none)
+            && self.first_t.is_some_and(|f| newest - f < window);
+        let watermark = if starting {
+            f64::NEG_INFINITY
+        } else {
+            self.newest
+                .iter()
+                .flatten()
+                .copied()
+                .reduce(f64::min)
+                .unwrap_or(f64::NEG_INFINITY)
+        };
         while let Some(first) = self.held.front() {
             let ready = all
                 || window <= 0.0
@@ -904,6 +914,7 @@ impl VehicleState {
             // A reset with a time re-anchors the vehicle's clock (the way back after a jump).
             self.last_t = Some(t);
             self.newest = [None, None];
+            self.first_t = None;
             self.recent = [VecDeque::new(), VecDeque::new()];
         }
         self.jump = None;
