@@ -159,11 +159,13 @@ def test_estimate_diagnostics_count_rejected_inputs(client):
     """proto/README.md (Errors): refused inputs are also counted in the vehicle's `diagnostics.rejected`."""
     vehicle = "diag-rej"
     s = Scenario(seed=41)
-    client.publish_vectors(vehicle, 1.0, s.vectors(1.0))
-    client.put_raw(vehicle, "vectors", vectors(2.0, sigma=0).encode())
-    client.put_raw(vehicle, "vectors", vectors(0.5).encode())  # out of order
     estimates = Collector()
     sub = subscribe_synced(client, client.subscribe_estimates, estimates, vehicle=vehicle)
+    client.publish_vectors(vehicle, 1.0, s.vectors(1.0))
+    # (Once the set at 1 s is processed: until then the reorder window would still take 0.5 s.)
+    estimates.wait_for(lambda i: len(i) >= 1, 10, "the estimate at t = 1")
+    client.put_raw(vehicle, "vectors", vectors(2.0, sigma=0).encode())
+    client.put_raw(vehicle, "vectors", vectors(0.5).encode())  # out of order
     client.publish_vectors(vehicle, 3.0, s.vectors(3.0))
     got = estimates.wait_for(lambda i: any(e["t"] == 3.0 for e in i), 10, "the estimate at t = 3")
     sub.undeclare()
