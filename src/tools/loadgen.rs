@@ -51,6 +51,28 @@ pub struct LoadReport {
     pub send_lag_max_ms: f64,
 }
 
+/// Sent-time of each vector message still waiting for its estimate, per vehicle, by `time_key(t)`.
+pub type Pending = Vec<Mutex<HashMap<i64, Instant>>>;
+
+/// Put→estimate latency, µs, of an estimate (or echo) sample: matches it with its vector message by
+/// vehicle and `t` and forgets that message. `None` for a sample that is not one of ours.
+pub fn latency_us(
+    s: &zenoh::sample::Sample,
+    keys: &Keys,
+    index: &HashMap<String, usize>,
+    pending: &Pending,
+) -> Option<f64> {
+    let now = Instant::now();
+    let (vehicle, _) = keys.split(s.key_expr().as_str())?;
+    let &i = index.get(vehicle)?;
+    let msg = serde_json::from_slice::<JustT>(&s.payload().to_bytes()).ok()?;
+    let sent = pending[i]
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .remove(&time_key(msg.t))?;
+    Some(now.duration_since(sent).as_secs_f64() * 1e6)
+}
+
 /// The time stamp of an estimate, the only field the load generators read.
 #[derive(serde::Deserialize)]
 pub struct JustT {
@@ -170,22 +192,8 @@ pub async fn run(
     let _estimates = session
         .declare_subscriber(keys.all(Leaf::Estimate))
         .callback(move |s: zenoh::sample::Sample| {
-            let now = Instant::now();
-            let Some((vehicle, _)) = k.split(s.key_expr().as_str()) else {
-                return;
-            };
-            let Some(&i) = idx.get(vehicle) else { return };
-            let Ok(msg) = serde_json::from_slice::<JustT>(&s.payload().to_bytes()) else {
-                return;
-            };
-            let sent = p[i]
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .remove(&time_key(msg.t));
-            if let Some(sent) = sent {
-                l.lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .push(now.duration_since(sent).as_secs_f64() * 1e6);
+            if let Some(us) = latency_us(&s, &k, &idx, &p) {
+                l.lock().unwrap_or_else(|e| e.into_inner()).push(us);
             }
         })
         .await?;

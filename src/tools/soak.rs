@@ -11,7 +11,7 @@
 
 use crate::filters::FilterSpec;
 use crate::service::keys::{Keys, Leaf};
-use crate::tools::loadgen::{probe, star_set, time_key, JustT};
+use crate::tools::loadgen::{latency_us, probe, star_set, time_key};
 use crate::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -426,23 +426,11 @@ async fn load(
     let _estimates = session
         .declare_subscriber(keys.all(Leaf::Estimate))
         .callback(move |s: zenoh::sample::Sample| {
-            let now = Instant::now();
-            let Some((vehicle, _)) = k.split(s.key_expr().as_str()) else {
-                return;
-            };
-            let Some(&i) = idx.get(vehicle) else { return };
-            let Ok(msg) = serde_json::from_slice::<JustT>(&s.payload().to_bytes()) else {
-                return;
-            };
-            let sent = p[i]
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .remove(&time_key(msg.t));
-            if let Some(sent) = sent {
+            if let Some(us) = latency_us(&s, &k, &idx, &p) {
                 w.lock()
                     .unwrap_or_else(|e| e.into_inner())
                     .latencies_us
-                    .push(now.duration_since(sent).as_secs_f64() * 1e6);
+                    .push(us);
             }
         })
         .await
