@@ -172,10 +172,10 @@ fn seed_of(id: &str, generation: u64) -> u64 {
 
 /// Identifies a sample's content (duplicate detection).
 fn fingerprint(m: &Measurement) -> u64 {
+    // (No allocation: the bytes are streamed into the hash.)
     let bits = |v: &Vector3<f64>| {
-        v.iter()
-            .flat_map(|x| x.to_bits().to_le_bytes())
-            .collect::<Vec<u8>>()
+        let v = *v;
+        (0..3).flat_map(move |i| v[i].to_bits().to_le_bytes())
     };
     match m {
         Measurement::Gyro(g) => fnv(bits(&g.omega_body_rad_s), FNV_OFFSET),

@@ -73,6 +73,21 @@ pub fn latency_us(
     Some(now.duration_since(sent).as_secs_f64() * 1e6)
 }
 
+/// Waits until every vector message sent has its estimate, at most `limit`.
+pub async fn drain(pending: &Pending, limit: Duration) {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        let outstanding: usize = pending
+            .iter()
+            .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).len())
+            .sum();
+        if outstanding == 0 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
 /// The time stamp of an estimate, the only field the load generators read.
 #[derive(serde::Deserialize)]
 pub struct JustT {
@@ -248,18 +263,7 @@ pub async fn run(
         }
     }
     let sending = start.elapsed().as_secs_f64();
-    // Drain: wait until every estimate arrived or the drain period ends.
-    let deadline = Instant::now() + Duration::from_secs_f64(options.drain_s);
-    while Instant::now() < deadline {
-        let outstanding: usize = pending
-            .iter()
-            .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).len())
-            .sum();
-        if outstanding == 0 {
-            break;
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
+    drain(&pending, Duration::from_secs_f64(options.drain_s)).await;
     let mut lat = latencies.lock().unwrap_or_else(|e| e.into_inner()).clone();
     lat.sort_by(f64::total_cmp);
     let pct = |p: f64| -> f64 {

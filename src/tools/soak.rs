@@ -11,7 +11,7 @@
 
 use crate::filters::FilterSpec;
 use crate::service::keys::{Keys, Leaf};
-use crate::tools::loadgen::{latency_us, probe, star_set, time_key};
+use crate::tools::loadgen::{drain, latency_us, probe, star_set, time_key};
 use crate::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -502,17 +502,7 @@ async fn load(
         let end = start + Duration::from_secs_f64((k + 1) as f64 * window_s);
         if last {
             // Wait for the estimates still on their way (at most DRAIN).
-            let deadline = Instant::now() + DRAIN;
-            while Instant::now() < deadline {
-                let outstanding: usize = pending
-                    .iter()
-                    .map(|m| m.lock().unwrap_or_else(|e| e.into_inner()).len())
-                    .sum();
-                if outstanding == 0 {
-                    break;
-                }
-                tokio::time::sleep(Duration::from_millis(20)).await;
-            }
+            drain(&pending, DRAIN).await;
         } else if Instant::now() < end {
             tokio::time::sleep_until(end.into()).await;
         }
