@@ -54,6 +54,9 @@ if [[ ! -x "$BIN" ]]; then
   cargo build --release --locked
 fi
 
+# The zenoh router of the fleet tests (tests/python/test_fleet.py), built once into a cache.
+bash "$ROOT/scripts/ensure-zenohd.sh" >/dev/null
+
 set +e
 ATTITUDE_SERVICE_BIN="$BIN" "$PY" -m pytest -q tests/python "$@"
 code=$?

@@ -151,6 +151,20 @@ struct ServeArgs {
     /// from it at start; replaces `service.persistence.state_dir`.
     #[arg(long, value_name = "DIR")]
     state_dir: Option<PathBuf>,
+    /// Join a dynamic fleet: instances of the same group share the vehicles (liveliness membership,
+    /// rendezvous hashing, takeover on failure); sets `service.fleet.mode` to `dynamic`.
+    #[arg(long)]
+    fleet: bool,
+    /// The fleet group (`service.fleet.group`; default `default`).
+    #[arg(long, value_name = "NAME")]
+    group: Option<String>,
+    /// This instance's name, unique in its group (`service.fleet.instance`; default host-pid).
+    #[arg(long, value_name = "NAME")]
+    instance: Option<String>,
+    /// Serve only the vehicles whose id matches this key-expression chunk, e.g. `a$*`
+    /// (`service.fleet.vehicles`; default `*`): static sharding.
+    #[arg(long, value_name = "PATTERN")]
+    vehicles: Option<String>,
 }
 
 /// The simulated fleet of `simulate` and `demo`.
@@ -516,6 +530,14 @@ async fn serve(args: ServeArgs) -> Result<()> {
     if let Some(dir) = args.state_dir {
         file.service.persistence.state_dir = Some(dir);
     }
+    attitude_service::service::config::override_fleet(
+        &mut file.service,
+        args.fleet,
+        args.group,
+        args.instance,
+        args.vehicles,
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
     let zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
     let session = zenoh::open(zc)
         .await

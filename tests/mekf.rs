@@ -109,6 +109,7 @@ fn mekf(q0: Quaternion) -> Box<dyn attitude_service::filters::AttitudeFilter> {
         bias_rad_s: Vector3::zeros(),
         bias_sigma_rad_s: Vector3::repeat(1e-6),
         uniform_attitude: false,
+        covariance: None,
     };
     build_filter(&config, &init, 7).unwrap()
 }

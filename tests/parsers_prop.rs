@@ -1226,6 +1226,7 @@ fn initial_state(restrict: Restrict) -> impl Strategy<Value = InitialState> {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: Vector3::repeat(bs),
             uniform_attitude: uniform,
+            covariance: None,
         })
 }
 
@@ -1696,6 +1697,7 @@ fn a_huge_gyro_rate_does_not_wedge_the_filter() {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: Vector3::repeat(1e-9),
             uniform_attitude: false,
+            covariance: None,
         };
         let mut f = build_filter(&filter_config(spec), &initial, 0).unwrap();
         let gyro = |t_s: f64, w: f64| {

@@ -17,9 +17,9 @@
 use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
-    DiagnosticsMsg, ErrorMsg, EstimateMsg, GateCountsMsg, GyroMsg, HealthMsg, InputLimits,
-    ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
-    TruthMsg, VectorsMsg, VehicleInfoMsg,
+    DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
+    InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg,
+    ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;
@@ -610,6 +610,18 @@ fn full_messages() -> Vec<(&'static str, Value)> {
             skipped: 0,
             written: 12,
             failed: 0,
+        }),
+        fleet: Some(FleetHealthMsg {
+            mode: "dynamic".into(),
+            group: "default".into(),
+            instance: "ground-1".into(),
+            vehicles: "*".into(),
+            members: vec!["ground-1".into(), "ground-2".into()],
+            owned: 2,
+            takeovers: 1,
+            released: 0,
+            standby_inputs: 40,
+            standby_estimates: 3,
         }),
     };
     let truth = TruthMsg {

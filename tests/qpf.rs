@@ -27,6 +27,7 @@ fn initial(q: Quaternion, sigma_att_rad: f64, uniform: bool) -> InitialState {
         bias_rad_s: Vector3::zeros(),
         bias_sigma_rad_s: Vector3::repeat(1e-7),
         uniform_attitude: uniform,
+        covariance: None,
     }
 }
 

@@ -220,6 +220,7 @@ fn gap_error_over_sigma(kind: &str, accel_sigma: f64) -> (f64, Option<f64>, u64)
         bias_rad_s: Vector3::zeros(),
         bias_sigma_rad_s: Vector3::repeat(1e-9),
         uniform_attitude: false,
+        covariance: None,
     };
     let mut f = build_filter(&cfg, &init, 7).unwrap();
     let w0 = Vector3::new(0.01, -0.02, 0.005);

@@ -36,6 +36,7 @@ fn initial(q: Quaternion, sigma_att: f64, bias: Vector3<f64>, sigma_bias: f64) -
         bias_rad_s: bias,
         bias_sigma_rad_s: Vector3::repeat(sigma_bias),
         uniform_attitude: false,
+        covariance: None,
     }
 }
 

@@ -126,11 +126,7 @@ impl Mekf {
         let q = initial.q.normalized().ok_or_else(|| {
             FilterError::InvalidConfig("initial quaternion has no direction".into())
         })?;
-        let mut p = Matrix6::zeros();
-        for i in 0..3 {
-            p[(i, i)] = initial.sigma_att_rad[i].powi(2);
-            p[(i + 3, i + 3)] = initial.bias_sigma_rad_s[i].powi(2);
-        }
+        let p = initial.covariance_matrix();
         if !is_spd(&p) || !initial.bias_rad_s.iter().all(|b| b.is_finite()) {
             return Err(FilterError::InvalidConfig(
                 "initial sigmas must be positive and finite".into(),

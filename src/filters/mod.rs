@@ -192,6 +192,24 @@ pub struct InitialState {
     /// Nothing is known about the attitude: a particle filter draws it uniformly; a Kalman filter uses
     /// `q` with `sigma_att_rad`.
     pub uniform_attitude: bool,
+    /// A full 6×6 covariance of `[δα (rad); δβ (rad/s)]` in place of the two diagonals (a start from a
+    /// published estimate, e.g. a fleet takeover); it must be symmetric positive definite.
+    pub covariance: Option<Matrix6<f64>>,
+}
+
+impl InitialState {
+    /// The initial covariance: `covariance` when given, otherwise the diagonal of the two sigmas.
+    pub fn covariance_matrix(&self) -> Matrix6<f64> {
+        if let Some(p) = self.covariance {
+            return p;
+        }
+        let mut p = Matrix6::zeros();
+        for i in 0..3 {
+            p[(i, i)] = self.sigma_att_rad[i].powi(2);
+            p[(i + 3, i + 3)] = self.bias_sigma_rad_s[i].powi(2);
+        }
+        p
+    }
 }
 
 /// What a filter knows about itself. Fields a filter does not have are `None`.
@@ -553,6 +571,13 @@ pub fn build_filter(
         return Err(FilterError::InvalidConfig(
             "initial sigmas and bias must be finite with finite squares".into(),
         ));
+    }
+    if let Some(p) = &initial.covariance {
+        if !is_spd(p) {
+            return Err(FilterError::InvalidConfig(
+                "the initial covariance must be symmetric positive definite".into(),
+            ));
+        }
     }
     match config.spec.kind {
         FilterKind::Mekf => Ok(Box::new(

@@ -312,7 +312,28 @@ impl Qpf {
         }
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let mut cloud = Cloud::with_len(n);
+        // A full covariance (a start from a published estimate): particles drawn from it jointly.
+        let factor = match &initial.covariance {
+            Some(p) if !initial.uniform_attitude => Some(
+                p.cholesky()
+                    .ok_or_else(|| {
+                        FilterError::InvalidConfig(
+                            "the initial covariance must be positive definite".into(),
+                        )
+                    })?
+                    .l(),
+            ),
+            _ => None,
+        };
         for i in 0..n {
+            if let Some(l) = &factor {
+                let x = l * Vector6::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal));
+                let dalpha = Vector3::new(x[0], x[1], x[2]);
+                let q = Quaternion::from_rotation_vector(&dalpha).compose(&q0);
+                let b = initial.bias_rad_s + Vector3::new(x[3], x[4], x[5]);
+                cloud.set(i, &q, &b);
+                continue;
+            }
             let q = if initial.uniform_attitude {
                 loop {
                     let v: [f64; 4] = [
@@ -333,11 +354,7 @@ impl Qpf {
             let b = initial.bias_rad_s + normal3(&mut rng).component_mul(&initial.bias_sigma_rad_s);
             cloud.set(i, &q, &b);
         }
-        let mut p_hat = Matrix6::zeros();
-        for i in 0..3 {
-            p_hat[(i, i)] = initial.sigma_att_rad[i].powi(2);
-            p_hat[(i + 3, i + 3)] = initial.bias_sigma_rad_s[i].powi(2);
-        }
+        let p_hat = initial.covariance_matrix();
         let diagnostics = Diagnostics {
             resamples: Some(0),
             fiducial_fallbacks: Some(0),
@@ -386,6 +403,7 @@ impl Qpf {
             bias_rad_s: first.1,
             bias_sigma_rad_s: Vector3::zeros(),
             uniform_attitude: false,
+            covariance: None,
         };
         let mut f = Qpf::new(&cfg, &init, options, seed)?;
         let total: f64 = particles.iter().map(|p| p.2).sum();

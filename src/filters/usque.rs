@@ -167,11 +167,9 @@ impl Usque {
             ));
         }
         let k = options.grp.small_angle_factor();
-        let mut p = Matrix6::zeros();
-        for i in 0..3 {
-            p[(i, i)] = (initial.sigma_att_rad[i] / k).powi(2);
-            p[(i + 3, i + 3)] = initial.bias_sigma_rad_s[i].powi(2);
-        }
+        // The attitude rows and columns in GRP units (δp ≈ δα / k).
+        let scale = Matrix6::from_diagonal(&Vector6::new(1.0 / k, 1.0 / k, 1.0 / k, 1.0, 1.0, 1.0));
+        let p = scale * initial.covariance_matrix() * scale;
         if !is_spd(&p) {
             return Err(FilterError::InvalidConfig(
                 "initial covariance is not positive definite".into(),

@@ -2,6 +2,7 @@
 //! section, parsed in two stages: raw (`deny_unknown_fields`, named defaults), then validated into
 //! [`ServiceConfig`]. `config/default.json5` documents every option; a test loads it.
 
+use super::fleet::{default_instance_name, FleetConfig, FleetMode};
 use crate::attitude::Grp;
 use crate::filters::{
     Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, Kernel, QpfOptions, UsqueOptions,
@@ -52,6 +53,7 @@ struct RawService {
     sensors: BTreeMap<String, RawSensor>,
     health: RawHealth,
     persistence: RawPersistence,
+    fleet: RawFleet,
 }
 
 impl Default for RawService {
@@ -67,6 +69,32 @@ impl Default for RawService {
             sensors: BTreeMap::new(),
             health: RawHealth::default(),
             persistence: RawPersistence::default(),
+            fleet: RawFleet::default(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawFleet {
+    mode: String,
+    group: String,
+    instance: Option<String>,
+    vehicles: String,
+    standby_s: f64,
+    discovery_timeout_s: f64,
+}
+
+impl Default for RawFleet {
+    fn default() -> Self {
+        let d = FleetConfig::single("");
+        RawFleet {
+            mode: d.mode.as_str().into(),
+            group: d.group,
+            instance: None,
+            vehicles: d.vehicles,
+            standby_s: d.standby_s,
+            discovery_timeout_s: d.discovery_timeout_s,
         }
     }
 }
@@ -357,6 +385,7 @@ pub struct ServiceConfig {
     pub workers: usize,
     pub policy: Policy,
     pub persistence: Persistence,
+    pub fleet: FleetConfig,
 }
 
 impl ServiceConfig {
@@ -642,6 +671,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     } else {
         raw.workers
     };
+    let fleet = validate_fleet(&raw.key_prefix, raw.fleet)?;
     Ok(ServiceConfig {
         key_prefix: raw.key_prefix,
         default_filter,
@@ -660,5 +690,83 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         workers,
         policy,
         persistence,
+        fleet,
+    })
+}
+
+/// Applies the command line's fleet options (`serve --fleet --group --instance --vehicles`) over the
+/// file's, validated like the file's.
+pub fn override_fleet(
+    config: &mut ServiceConfig,
+    dynamic: bool,
+    group: Option<String>,
+    instance: Option<String>,
+    vehicles: Option<String>,
+) -> Result<(), String> {
+    let f = &config.fleet;
+    let raw = RawFleet {
+        mode: if dynamic { "dynamic" } else { f.mode.as_str() }.into(),
+        group: group.unwrap_or_else(|| f.group.clone()),
+        instance: Some(instance.unwrap_or_else(|| f.instance.clone())),
+        vehicles: vehicles.unwrap_or_else(|| f.vehicles.clone()),
+        standby_s: f.standby_s,
+        discovery_timeout_s: f.discovery_timeout_s,
+    };
+    config.fleet = validate_fleet(&config.key_prefix, raw)?;
+    Ok(())
+}
+
+fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
+    let mode = match raw.mode.as_str() {
+        "single" => FleetMode::Single,
+        "dynamic" => FleetMode::Dynamic,
+        other => {
+            return Err(format!(
+                "service.fleet.mode '{other}': expected single or dynamic"
+            ))
+        }
+    };
+    let chunk = |value: &str, what: &str| {
+        if crate::wire::validate_vehicle_id(value).is_err() {
+            Err(format!(
+                "service.fleet.{what} '{value}' must be one key chunk of 1-64 characters from [A-Za-z0-9_-]"
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    chunk(&raw.group, "group")?;
+    let instance = match raw.instance {
+        Some(i) => {
+            chunk(&i, "instance")?;
+            i
+        }
+        None => default_instance_name(),
+    };
+    // The vehicle pattern is one chunk of a key expression: `*`, `a$*`, `sc1`, ...
+    let vehicles = raw.vehicles;
+    let probe = format!("{prefix}/{vehicles}/gyro");
+    if vehicles.is_empty()
+        || vehicles.contains('/')
+        || vehicles.starts_with('@')
+        || zenoh::key_expr::KeyExpr::try_from(probe.as_str()).is_err()
+    {
+        return Err(format!(
+            "service.fleet.vehicles '{vehicles}' must be one chunk of a key expression (e.g. *, a$*, sc1)"
+        ));
+    }
+    if !(raw.standby_s.is_finite() && raw.standby_s >= 0.0) {
+        return Err("service.fleet.standby_s must be finite and non-negative".into());
+    }
+    if !(raw.discovery_timeout_s.is_finite() && raw.discovery_timeout_s > 0.0) {
+        return Err("service.fleet.discovery_timeout_s must be positive".into());
+    }
+    Ok(FleetConfig {
+        mode,
+        group: raw.group,
+        instance,
+        vehicles,
+        standby_s: raw.standby_s,
+        discovery_timeout_s: raw.discovery_timeout_s,
     })
 }

@@ -9,16 +9,17 @@
 //! arrival order; a slow vehicle occupies one worker and never blocks the others.
 
 use super::config::ServiceConfig;
+use super::fleet::{owner, FleetMode};
 use super::keys::{Keys, Leaf};
 use super::persist::{self, SavedCounters};
 use super::vehicle::{Event, Stream, VehicleState};
 use crate::sensors::Measurement;
 use crate::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
-    EstimateMsg, GyroMsg, HealthMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg,
-    VehicleInfoMsg,
+    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, RejectCode, Rejection, ResetMsg,
+    ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
 };
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
@@ -28,6 +29,7 @@ use std::time::Instant;
 pub type Sink = Arc<dyn Fn(&str, Vec<u8>) + Send + Sync>;
 
 /// A raw input as received.
+#[derive(Clone)]
 pub struct Inbound {
     pub key: String,
     pub payload: Vec<u8>,
@@ -208,12 +210,33 @@ pub struct Engine {
     sink: Sink,
     /// Serialises checkpoint writers (the housekeeping thread and the shutdown).
     checkpointing: Mutex<()>,
+    fleet: FleetState,
+    /// `P/<shard>/x` when statically sharded (`fleet.vehicles` other than `*`).
+    shard: Option<zenoh::key_expr::OwnedKeyExpr>,
+}
+
+/// What this instance knows of the rest of its fleet (dynamic mode).
+#[derive(Default)]
+struct FleetState {
+    /// The live members (this instance among them); `None` until first known: nothing is owned
+    /// before, so a starting instance never processes what another member owns.
+    members: RwLock<Option<BTreeSet<String>>>,
+    /// The last estimate published for each vehicle another member owns: where a takeover starts.
+    cache: Mutex<HashMap<String, Arc<EstimateMsg>>>,
+    /// The raw inputs of vehicles another member owns, with their arrival (engine time, s), for
+    /// `fleet.standby_s`: a takeover replays those newer than the cached estimate.
+    standby: Mutex<HashMap<String, VecDeque<(f64, Inbound)>>>,
+    takeovers: AtomicU64,
+    released: AtomicU64,
 }
 
 /// The running threads of an engine.
 pub struct EngineThreads {
     /// Where subscriber callbacks hand raw samples (`try_send` only); `None` stops the dispatcher.
     pub ingest: crossbeam_channel::Sender<Option<Inbound>>,
+    /// The live members of the fleet, whenever they change (dynamic mode); handled by the dispatcher
+    /// in order with the inputs.
+    pub members: crossbeam_channel::Sender<BTreeSet<String>>,
     dispatcher: std::thread::JoinHandle<()>,
     workers: Vec<std::thread::JoinHandle<()>>,
     housekeeping: std::thread::JoinHandle<()>,
@@ -263,9 +286,16 @@ impl Engine {
     ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
         let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Inbound>>(INGEST_CAPACITY);
+        let (members_tx, members_rx) = crossbeam_channel::unbounded::<BTreeSet<String>>();
         let workers = config.workers.max(1);
+        let keys = Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles);
+        let shard = (config.fleet.vehicles != "*")
+            .then(|| zenoh::key_expr::OwnedKeyExpr::try_from(keys.all(Leaf::Gyro)).ok())
+            .flatten();
         let engine = Arc::new(Engine {
-            keys: Keys::new(&config.key_prefix),
+            keys,
+            shard,
+            fleet: FleetState::default(),
             config: Arc::new(config),
             counters: Counters::default(),
             started: Instant::now(),
@@ -279,9 +309,17 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || {
-                    while let Ok(Some(inbound)) = ingest_rx.recv() {
-                        engine.dispatch(inbound);
+                .spawn(move || loop {
+                    crossbeam_channel::select! {
+                        recv(ingest_rx) -> m => match m {
+                            Ok(Some(inbound)) => engine.dispatch(inbound),
+                            _ => break,
+                        },
+                        recv(members_rx) -> m => {
+                            if let Ok(members) = m {
+                                engine.set_members(members);
+                            }
+                        }
                     }
                 })
                 .expect("spawn the dispatcher thread")
@@ -312,6 +350,7 @@ impl Engine {
             engine.clone(),
             EngineThreads {
                 ingest: ingest_tx,
+                members: members_tx,
                 dispatcher,
                 workers,
                 housekeeping,
@@ -369,6 +408,7 @@ impl Engine {
     fn housekeeping(&self, stop: crossbeam_channel::Receiver<()>) {
         let interval = self.config.persistence.checkpoint_interval_s;
         let mut next_checkpoint = self.now_s() + interval;
+        let mut next_trim = self.now_s() + 1.0;
         let tick = std::time::Duration::from_secs_f64(TICK_S);
         loop {
             match stop.recv_timeout(tick) {
@@ -384,6 +424,10 @@ impl Engine {
                         .push_back(Input::Tick);
                     self.schedule(&v);
                 }
+            }
+            if self.now_s() >= next_trim {
+                self.trim_standby();
+                next_trim = self.now_s() + 1.0;
             }
             if self.now_s() >= next_checkpoint {
                 self.checkpoint_all();
@@ -494,33 +538,16 @@ impl Engine {
         let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
             return;
         };
-        let limits = &self.config.limits.input;
-        let decoded: Result<Vec<Measurement>, Rejection> = match leaf {
-            Leaf::Gyro => decode_batch::<GyroMsg>(&inbound.payload, limits).and_then(|items| {
-                items
-                    .iter()
-                    .enumerate()
-                    .map(|(i, g)| {
-                        g.to_domain(limits)
-                            .map(Measurement::Gyro)
-                            .map_err(|e| at(i, items.len(), e))
-                    })
-                    .collect()
-            }),
-            Leaf::Vectors => {
-                decode_batch::<VectorsMsg>(&inbound.payload, limits).and_then(|items| {
-                    items
-                        .iter()
-                        .enumerate()
-                        .map(|(i, v)| {
-                            v.to_domain(limits)
-                                .map(Measurement::Vectors)
-                                .map_err(|e| at(i, items.len(), e))
-                        })
-                        .collect()
-                })
-            }
-            _ => return,
+        if leaf == Leaf::Estimate {
+            return self.remember_estimate(vehicle, &inbound.payload);
+        }
+        if !self.owns(vehicle) {
+            let vehicle = vehicle.to_string();
+            return self.keep_standby(&vehicle, inbound);
+        }
+        let decoded = match self.decode(leaf, &inbound.payload) {
+            Some(d) => d,
+            None => return,
         };
         let n = decoded.as_ref().map(|d| d.len() as u64).unwrap_or(1);
         self.counters.received.fetch_add(n, Ordering::Relaxed);
@@ -553,6 +580,270 @@ impl Engine {
             // (A refused payload is counted as one rejection, not as received samples.)
             v.received.fetch_add(n, Ordering::Relaxed);
         }
+        self.schedule(&v);
+    }
+
+    /// Decodes a gyro or vectors payload into measurements (`None` for other leaves).
+    fn decode(&self, leaf: Leaf, payload: &[u8]) -> Option<Result<Vec<Measurement>, Rejection>> {
+        let limits = &self.config.limits.input;
+        Some(match leaf {
+            Leaf::Gyro => decode_batch::<GyroMsg>(payload, limits).and_then(|items| {
+                items
+                    .iter()
+                    .enumerate()
+                    .map(|(i, g)| {
+                        g.to_domain(limits)
+                            .map(Measurement::Gyro)
+                            .map_err(|e| at(i, items.len(), e))
+                    })
+                    .collect()
+            }),
+            Leaf::Vectors => decode_batch::<VectorsMsg>(payload, limits).and_then(|items| {
+                items
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| {
+                        v.to_domain(limits)
+                            .map(Measurement::Vectors)
+                            .map_err(|e| at(i, items.len(), e))
+                    })
+                    .collect()
+            }),
+            _ => return None,
+        })
+    }
+
+    // --------------------------------------------------------------------------------------------
+    // Fleet (dynamic mode): ownership, standby, takeover.
+
+    /// Whether this instance processes and answers for `vehicle` (any string: a wildcard chunk is
+    /// owned too, so exactly one member refuses a wildcard put).
+    pub fn owns(&self, vehicle: &str) -> bool {
+        if let Some(shard) = &self.shard {
+            let key = self.keys.vehicle(vehicle, Leaf::Gyro);
+            let inside = zenoh::key_expr::KeyExpr::try_from(key.as_str())
+                .map(|k| shard.intersects(&k))
+                .unwrap_or(false);
+            if !inside {
+                return false;
+            }
+        }
+        match self.config.fleet.mode {
+            FleetMode::Single => true,
+            FleetMode::Dynamic => {
+                let members = self.fleet.members.read().unwrap_or_else(|e| e.into_inner());
+                members.as_ref().and_then(|m| owner(vehicle, m))
+                    == Some(&self.config.fleet.instance)
+            }
+        }
+    }
+
+    /// The live members, when known (dynamic mode).
+    pub fn members(&self) -> Option<BTreeSet<String>> {
+        self.fleet
+            .members
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+    }
+
+    /// An estimate another member published (or one read at start): kept as the starting point of a
+    /// takeover. Our own vehicles' estimates are ignored; an older one never replaces a newer one.
+    pub fn remember_estimate(&self, vehicle: &str, payload: &[u8]) {
+        if self.config.fleet.mode != FleetMode::Dynamic || self.owns(vehicle) {
+            return;
+        }
+        let e: EstimateMsg = match serde_json::from_slice(payload) {
+            Ok(e) => e,
+            Err(err) => {
+                tracing::debug!(vehicle, %err, "an estimate that does not parse is not remembered");
+                return;
+            }
+        };
+        if e.vehicle != vehicle || validate_vehicle_id(vehicle).is_err() {
+            return;
+        }
+        let mut cache = self.fleet.cache.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= self.config.limits.max_vehicles && !cache.contains_key(vehicle) {
+            return;
+        }
+        match cache.get(vehicle) {
+            Some(old) if old.t > e.t => {}
+            _ => {
+                cache.insert(vehicle.to_string(), Arc::new(e));
+            }
+        }
+    }
+
+    /// Keeps an input of a vehicle another member owns for `fleet.standby_s` (dynamic mode).
+    fn keep_standby(&self, vehicle: &str, inbound: Inbound) {
+        let window = self.config.fleet.standby_s;
+        if self.config.fleet.mode != FleetMode::Dynamic
+            || window <= 0.0
+            || validate_vehicle_id(vehicle).is_err()
+        {
+            return;
+        }
+        let now = self.now_s();
+        let mut standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
+        if standby.len() >= self.config.limits.max_vehicles && !standby.contains_key(vehicle) {
+            return;
+        }
+        let q = standby.entry(vehicle.to_string()).or_default();
+        q.push_back((now, inbound));
+        while q.len() > self.config.limits.queue_per_vehicle
+            || q.front().is_some_and(|(t, _)| *t < now - window)
+        {
+            q.pop_front();
+        }
+    }
+
+    /// Drops standby inputs older than the window (housekeeping).
+    fn trim_standby(&self) {
+        let oldest = self.now_s() - self.config.fleet.standby_s;
+        let mut standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
+        standby.retain(|_, q| {
+            while q.front().is_some_and(|(t, _)| *t < oldest) {
+                q.pop_front();
+            }
+            !q.is_empty()
+        });
+    }
+
+    /// The fleet's members changed (dispatcher thread, in order with the inputs): releases the
+    /// vehicles another member now owns and takes over those this instance now owns.
+    pub fn set_members(&self, members: BTreeSet<String>) {
+        let changed = self.members().as_ref() != Some(&members);
+        *self
+            .fleet
+            .members
+            .write()
+            .unwrap_or_else(|e| e.into_inner()) = Some(members.clone());
+        if !changed {
+            return;
+        }
+        tracing::info!(instance = %self.config.fleet.instance, ?members, "fleet members");
+        for v in self.vehicles() {
+            if !self.owns(&v.id) {
+                self.release(&v);
+            }
+        }
+        let candidates: BTreeSet<String> = {
+            let cache = self.fleet.cache.lock().unwrap_or_else(|e| e.into_inner());
+            let standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
+            cache.keys().chain(standby.keys()).cloned().collect()
+        };
+        for id in candidates {
+            if self.owns(&id) && self.vehicle(&id).is_none() {
+                self.take_over(&id);
+            }
+        }
+    }
+
+    /// Hands a vehicle to its new owner: it leaves the registry (what its inbox still holds is
+    /// processed and published), its last estimate is remembered (in case it comes back), and its
+    /// checkpoint is removed (a restart must not resurrect it here).
+    fn release(&self, v: &Arc<Vehicle>) {
+        self.vehicles
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(&v.id);
+        if let Some(e) = v.snapshot() {
+            self.fleet
+                .cache
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(v.id.clone(), e);
+        }
+        if let Some(dir) = &self.config.persistence.state_dir {
+            let _ = std::fs::remove_file(persist::path_of(dir, &v.id));
+        }
+        self.fleet.released.fetch_add(1, Ordering::Relaxed);
+        tracing::info!(vehicle = %v.id, "vehicle released to another member");
+    }
+
+    /// Starts a vehicle this instance now owns from the last estimate its previous owner published
+    /// (mean and covariance; a particle filter draws its particles from them), then replays the
+    /// standby inputs newer than that estimate. Without an estimate it starts from the inputs alone.
+    fn take_over(&self, id: &str) {
+        let inputs = self
+            .fleet
+            .standby
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id)
+            .unwrap_or_default();
+        let cached = self
+            .fleet
+            .cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id);
+        // (Inputs that do not decode were refused by the owner of the time.)
+        let measurements: Vec<Measurement> = inputs
+            .iter()
+            .filter_map(|(_, inbound)| {
+                let (_, leaf) = self.keys.split(&inbound.key)?;
+                self.decode(leaf, &inbound.payload)?.ok()
+            })
+            .flatten()
+            .collect();
+        let base = self.config.filter_for(id);
+        let (state, replay, snapshot) = match &cached {
+            Some(e) => {
+                let t0 = e.t + crate::filters::SAME_INSTANT_S;
+                let last_gyro = measurements
+                    .iter()
+                    .filter_map(|m| match m {
+                        Measurement::Gyro(g) if g.t_s <= t0 => Some(*g),
+                        _ => None,
+                    })
+                    .reduce(|a, b| if b.t_s >= a.t_s { b } else { a });
+                match VehicleState::take_over(id, base, e, last_gyro) {
+                    Ok(state) => {
+                        let newer: Vec<Measurement> =
+                            measurements.into_iter().filter(|m| m.t_s() > t0).collect();
+                        (state, newer, Some(e.clone()))
+                    }
+                    Err(r) => {
+                        tracing::warn!(vehicle = id, error = %r.message, "cannot start from the last estimate; starting afresh");
+                        (VehicleState::new(id, base.clone()), measurements, None)
+                    }
+                }
+            }
+            None => (VehicleState::new(id, base.clone()), measurements, None),
+        };
+        let v = {
+            let mut map = self.vehicles.write().unwrap_or_else(|e| e.into_inner());
+            if map.len() >= self.config.limits.max_vehicles {
+                tracing::error!(
+                    vehicle = id,
+                    "takeover skipped: limits.max_vehicles reached"
+                );
+                return;
+            }
+            let v = Arc::new(Vehicle::new(id, state, SavedCounters::default()));
+            map.insert(id.to_string(), v.clone());
+            v
+        };
+        if snapshot.is_some() {
+            // Queries answer the estimate the previous owner published until the first update here.
+            *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = snapshot;
+        }
+        let n = replay.len();
+        v.received.fetch_add(n as u64, Ordering::Relaxed);
+        v.dirty.store(true, Ordering::Release);
+        v.inbox
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .extend(replay.into_iter().map(Input::Measurement));
+        self.fleet.takeovers.fetch_add(1, Ordering::Relaxed);
+        tracing::info!(
+            vehicle = id,
+            from_estimate = cached.as_ref().map(|e| e.t),
+            replayed = n,
+            "vehicle taken over"
+        );
         self.schedule(&v);
     }
 
@@ -723,6 +1014,30 @@ impl Engine {
         self.state_of(vehicle).map(|e| e.covariance())
     }
 
+    fn fleet_health(&self, owned: usize) -> FleetHealthMsg {
+        let f = &self.config.fleet;
+        FleetHealthMsg {
+            mode: f.mode.as_str().into(),
+            group: f.group.clone(),
+            instance: f.instance.clone(),
+            vehicles: f.vehicles.clone(),
+            members: match f.mode {
+                FleetMode::Single => vec![f.instance.clone()],
+                FleetMode::Dynamic => self.members().unwrap_or_default().into_iter().collect(),
+            },
+            owned,
+            takeovers: self.fleet.takeovers.load(Ordering::Relaxed),
+            released: self.fleet.released.load(Ordering::Relaxed),
+            standby_inputs: self
+                .fleet
+                .standby
+                .lock()
+                .map(|s| s.values().map(|q| q.len()).sum())
+                .unwrap_or(0),
+            standby_estimates: self.fleet.cache.lock().map(|c| c.len()).unwrap_or(0),
+        }
+    }
+
     pub fn health(&self) -> HealthMsg {
         let c = &self.counters;
         let vehicles = self.vehicles();
@@ -770,6 +1085,7 @@ impl Engine {
                     written: c.written.load(Ordering::Relaxed),
                     failed: c.write_failed.load(Ordering::Relaxed),
                 }),
+            fleet: Some(self.fleet_health(vehicles.len())),
         }
     }
 }

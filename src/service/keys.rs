@@ -48,6 +48,8 @@ impl Leaf {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Keys {
     prefix: String,
+    /// The vehicle chunk this service subscribes to and answers for (`*`, or a static shard).
+    vehicles: String,
 }
 
 impl Keys {
@@ -55,7 +57,19 @@ impl Keys {
     pub fn new(prefix: &str) -> Self {
         Keys {
             prefix: prefix.trim_end_matches('/').to_string(),
+            vehicles: "*".into(),
         }
+    }
+
+    /// Serving only the vehicles whose id chunk matches `pattern` (validated, `fleet.vehicles`).
+    pub fn with_vehicles(mut self, pattern: &str) -> Self {
+        self.vehicles = pattern.to_string();
+        self
+    }
+
+    /// The vehicle chunk served (`*` unless statically sharded).
+    pub fn vehicle_pattern(&self) -> &str {
+        &self.vehicles
     }
 
     pub fn prefix(&self) -> &str {
@@ -67,9 +81,40 @@ impl Keys {
         format!("{}/{}/{}", self.prefix, vehicle, leaf.as_str())
     }
 
-    /// `P/*/<leaf>`: the subscription or queryable over every vehicle.
+    /// `P/*/<leaf>` (or `P/<shard>/<leaf>`): the subscription or queryable over every vehicle served.
     pub fn all(&self, leaf: Leaf) -> String {
-        format!("{}/*/{}", self.prefix, leaf.as_str())
+        format!("{}/{}/{}", self.prefix, self.vehicles, leaf.as_str())
+    }
+
+    /// `P/@/fleet/<group>/<instance>`: the liveliness token of a fleet member.
+    pub fn fleet_member(&self, group: &str, instance: &str) -> String {
+        format!("{}/@/fleet/{group}/{instance}", self.prefix)
+    }
+
+    /// `P/@/fleet/<group>/*`: every member's token.
+    pub fn fleet_members(&self, group: &str) -> String {
+        format!("{}/@/fleet/{group}/*", self.prefix)
+    }
+
+    /// The instance's name from a member token's key.
+    pub fn member_of<'a>(&self, group: &str, key: &'a str) -> Option<&'a str> {
+        let rest = key
+            .strip_prefix(self.prefix.as_str())?
+            .strip_prefix("/@/fleet/")?
+            .strip_prefix(group)?
+            .strip_prefix('/')?;
+        (!rest.is_empty() && !rest.contains('/')).then_some(rest)
+    }
+
+    /// `P/@/instance/<instance>/health`: one instance's health (in a fleet every instance answers
+    /// `P/@/health` on the same key, so a client sees one reply per instance only here).
+    pub fn instance_health(&self, instance: &str) -> String {
+        format!("{}/@/instance/{instance}/health", self.prefix)
+    }
+
+    /// `P/@/instance/<instance>/vehicles`: the vehicles one instance owns.
+    pub fn instance_vehicles(&self, instance: &str) -> String {
+        format!("{}/@/instance/{instance}/vehicles", self.prefix)
     }
 
     /// `P/@/vehicles`.
@@ -116,5 +161,17 @@ mod tests {
         assert_eq!(k.split("mission-a/attitude/sc1/other"), None);
         assert_eq!(k.split("mission-b/attitude/sc1/gyro"), None);
         assert_eq!(k.split("mission-a/attitude/sc1/gyro/x"), None);
+        let shard = k.clone().with_vehicles("a$*");
+        assert_eq!(shard.all(Leaf::Gyro), "mission-a/attitude/a$*/gyro");
+        assert_eq!(k.fleet_member("g", "i1"), "mission-a/attitude/@/fleet/g/i1");
+        assert_eq!(
+            k.member_of("g", "mission-a/attitude/@/fleet/g/i1"),
+            Some("i1")
+        );
+        assert_eq!(k.member_of("g", "mission-a/attitude/@/fleet/h/i1"), None);
+        assert_eq!(
+            k.instance_health("i1"),
+            "mission-a/attitude/@/instance/i1/health"
+        );
     }
 }

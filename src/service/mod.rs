@@ -6,6 +6,7 @@
 
 pub mod config;
 pub mod engine;
+pub mod fleet;
 pub mod keys;
 pub mod persist;
 pub mod vehicle;
@@ -15,6 +16,7 @@ use config::ServiceConfig;
 use engine::{Engine, Inbound, Sink};
 use keys::Leaf;
 use serde::Serialize;
+use std::collections::BTreeSet;
 use std::future::Future;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -89,9 +91,23 @@ pub async fn run(
         .map_err(zerr)?;
     let vectors = session
         .declare_subscriber(keys.all(Leaf::Vectors))
-        .callback(callback)
+        .callback(callback.clone())
         .await
         .map_err(zerr)?;
+    // A dynamic fleet member also follows the others' estimates (where a takeover starts), then
+    // joins: see `join_fleet`.
+    let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
+    let estimates = if dynamic {
+        Some(
+            session
+                .declare_subscriber(keys.all(Leaf::Estimate))
+                .callback(callback)
+                .await
+                .map_err(zerr)?,
+        )
+    } else {
+        None
+    };
     let q_attitude = session
         .declare_queryable(keys.all(Leaf::Attitude))
         .await
@@ -116,7 +132,27 @@ pub async fn run(
         .declare_queryable(keys.health())
         .await
         .map_err(zerr)?;
-    tracing::info!(prefix = keys.prefix(), "attitude-service running");
+    let instance = engine.config.fleet.instance.clone();
+    let q_instance_health = session
+        .declare_queryable(keys.instance_health(&instance))
+        .await
+        .map_err(zerr)?;
+    let q_instance_vehicles = session
+        .declare_queryable(keys.instance_vehicles(&instance))
+        .await
+        .map_err(zerr)?;
+    let membership = if dynamic {
+        Some(join_fleet(&session, &engine, &threads.members).await?)
+    } else {
+        None
+    };
+    tracing::info!(
+        prefix = keys.prefix(),
+        instance = %instance,
+        fleet = engine.config.fleet.mode.as_str(),
+        vehicles = keys.vehicle_pattern(),
+        "attitude-service running"
+    );
 
     tokio::pin!(shutdown);
     loop {
@@ -136,21 +172,26 @@ pub async fn run(
                 let engine = engine.clone();
                 tokio::spawn(async move { reset(&engine, q).await });
             }
-            Ok(q) = q_vehicles.recv_async() => {
-                engine.counters.queries.fetch_add(1, Ordering::Relaxed);
-                let list: Vec<_> = engine.vehicles().iter().map(|v| v.info()).collect();
-                reply(&q, q.key_expr().as_str(), json(&list)).await;
+            // (Replies go on the concrete key: a get on P/@/instance/*/health gets one per instance.)
+            Ok(q) = q_vehicles.recv_async() => vehicles(&engine, &q, &keys.vehicles()).await,
+            Ok(q) = q_instance_vehicles.recv_async() => {
+                vehicles(&engine, &q, &keys.instance_vehicles(&instance)).await
             }
-            Ok(q) = q_health.recv_async() => {
-                engine.counters.queries.fetch_add(1, Ordering::Relaxed);
-                reply(&q, q.key_expr().as_str(), json(&engine.health())).await;
+            Ok(q) = q_health.recv_async() => health(&engine, &q, &keys.health()).await,
+            Ok(q) = q_instance_health.recv_async() => {
+                health(&engine, &q, &keys.instance_health(&instance)).await
             }
         }
     }
     tracing::info!("shutting down");
-    // Stop taking input first, then let the workers finish, then close the session.
+    // Stop taking input first, then let the workers finish (their last estimates are published),
+    // then leave the fleet (the others take over from those estimates and replay what they kept
+    // since), then close the session.
     let _ = gyro.undeclare().await;
     let _ = vectors.undeclare().await;
+    if let Some(e) = estimates {
+        let _ = e.undeclare().await;
+    }
     for q in [
         q_attitude,
         q_covariance,
@@ -158,12 +199,119 @@ pub async fn run(
         q_reset,
         q_vehicles,
         q_health,
+        q_instance_health,
+        q_instance_vehicles,
     ] {
         let _ = q.undeclare().await;
     }
     let _ = tokio::task::spawn_blocking(move || threads.shutdown()).await;
+    if let Some((token, watcher)) = membership {
+        // (Lets the last estimates reach the others before the token's removal does.)
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        let _ = watcher.undeclare().await;
+        let _ = token.undeclare().await;
+    }
     session.close().await.map_err(zerr)?;
     Ok(())
+}
+
+/// The liveliness token that makes this instance a member, and the subscriber that follows the
+/// others.
+type Membership = (
+    zenoh::liveliness::LivelinessToken,
+    zenoh::pubsub::Subscriber<()>,
+);
+
+/// Joins the dynamic fleet: finds the live members and the vehicles' current estimates (so the
+/// vehicles this instance takes start where their owners are), declares this instance's token, and
+/// follows the members from then on. The engine releases and takes over vehicles on each change.
+async fn join_fleet(
+    session: &zenoh::Session,
+    engine: &Arc<Engine>,
+    members_tx: &crossbeam_channel::Sender<BTreeSet<String>>,
+) -> Result<Membership, ServiceError> {
+    let f = &engine.config.fleet;
+    let keys = &engine.keys;
+    let timeout = Duration::from_secs_f64(f.discovery_timeout_s);
+    let members = Arc::new(std::sync::Mutex::new(BTreeSet::from([f.instance.clone()])));
+    let replies = session
+        .liveliness()
+        .get(keys.fleet_members(&f.group))
+        .timeout(timeout)
+        .await
+        .map_err(zerr)?;
+    while let Ok(r) = replies.recv_async().await {
+        if let Ok(sample) = r.result() {
+            if let Some(name) = keys.member_of(&f.group, sample.key_expr().as_str()) {
+                members
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .insert(name.to_string());
+            }
+        }
+    }
+    let others = members.lock().unwrap_or_else(|e| e.into_inner()).len() - 1;
+    if others > 0 {
+        // The current estimates of every vehicle: the starting points of what this instance takes.
+        let replies = session
+            .get(keys.all(Leaf::State))
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(timeout)
+            .await
+            .map_err(zerr)?;
+        while let Ok(r) = replies.recv_async().await {
+            if let Ok(sample) = r.result() {
+                if let Some((vehicle, _)) = keys.split(sample.key_expr().as_str()) {
+                    engine.remember_estimate(vehicle, &sample.payload().to_bytes());
+                }
+            }
+        }
+    }
+    let token = session
+        .liveliness()
+        .declare_token(keys.fleet_member(&f.group, &f.instance))
+        .await
+        .map_err(zerr)?;
+    let watcher = {
+        let members = members.clone();
+        let tx = members_tx.clone();
+        let keys = keys.clone();
+        let group = f.group.clone();
+        let me = f.instance.clone();
+        session
+            .liveliness()
+            .declare_subscriber(keys.fleet_members(&group))
+            .history(true)
+            .callback(move |sample: zenoh::sample::Sample| {
+                let Some(name) = keys.member_of(&group, sample.key_expr().as_str()) else {
+                    return;
+                };
+                let mut m = members.lock().unwrap_or_else(|e| e.into_inner());
+                match sample.kind() {
+                    zenoh::sample::SampleKind::Put => m.insert(name.to_string()),
+                    zenoh::sample::SampleKind::Delete if name != me => m.remove(name),
+                    _ => false,
+                };
+                let _ = tx.send(m.clone());
+            })
+            .await
+            .map_err(zerr)?
+    };
+    let initial = members.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    tracing::info!(instance = %f.instance, members = ?initial, "joined the fleet");
+    let _ = members_tx.send(initial);
+    Ok((token, watcher))
+}
+
+async fn vehicles(engine: &Engine, q: &Query, key: &str) {
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+    let list: Vec<_> = engine.vehicles().iter().map(|v| v.info()).collect();
+    reply(q, key, json(&list)).await;
+}
+
+async fn health(engine: &Engine, q: &Query, key: &str) {
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+    reply(q, key, json(&engine.health())).await;
 }
 
 fn json<T: Serialize + ?Sized>(value: &T) -> Vec<u8> {
@@ -206,6 +354,10 @@ async fn per_vehicle(
     let asked = q.key_expr().clone();
     if let Some((vehicle, _)) = engine.keys.split(asked.as_str()) {
         if !vehicle.contains(['*', '$']) {
+            if !engine.owns(vehicle) {
+                // Another member of the fleet answers (the query is finalised without a reply).
+                return;
+            }
             match answer(engine, vehicle) {
                 Ok(payload) => reply(q, asked.as_str(), payload).await,
                 Err(r) => {
@@ -230,8 +382,14 @@ async fn per_vehicle(
 }
 
 async fn reset(engine: &Engine, q: Query) {
-    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
     let key = q.key_expr().as_str().to_string();
+    // Another member of the fleet owns this vehicle and answers (a wildcard is refused by one).
+    if let Some((vehicle, _)) = engine.keys.split(&key) {
+        if !engine.owns(vehicle) {
+            return;
+        }
+    }
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
     let fail = |code: RejectCode, m: String| Rejection::new(code, m);
     let result: Result<Vec<u8>, Rejection> = async {
         let (vehicle, _) = engine

@@ -23,6 +23,8 @@ use std::collections::{BTreeMap, VecDeque};
 
 /// Attitude 1σ used by a reset that gives `q` without `sigma_deg`.
 pub const DEFAULT_RESET_SIGMA_DEG: f64 = 1.0;
+/// Most particles a reset (or a takeover) may ask for.
+pub const MAX_PARTICLES: usize = 1_000_000;
 /// Accepted samples per stream remembered to recognise duplicates.
 const RECENT: usize = 16;
 /// Gate statistics of observations without a sensor name, and of names beyond the per-vehicle limit.
@@ -635,6 +637,63 @@ impl VehicleState {
         r
     }
 
+    /// Starts a vehicle from the last estimate another instance published for it (a fleet takeover):
+    /// its mean and full covariance (a particle filter draws its particles from them), the filter it
+    /// ran, its time and its estimate count, so subscribers see `seq` continue. `last_gyro` is the
+    /// last gyro sample at or before the estimate's time: its rate is held from there. Counted in
+    /// `diagnostics.reinits.takeover`.
+    pub fn take_over(
+        id: &str,
+        base: &VehicleFilterConfig,
+        e: &EstimateMsg,
+        last_gyro: Option<GyroSample>,
+    ) -> Result<Self, Rejection> {
+        let bad = |m: String| Rejection::new(RejectCode::BadRequest, m);
+        let spec_text = match &e.fiducial {
+            Some(f) => format!("{}:{f}", e.filter),
+            None => e.filter.clone(),
+        };
+        let spec: FilterSpec = spec_text
+            .parse()
+            .map_err(|_| bad(format!("estimate of {id}: unknown filter '{spec_text}'")))?;
+        let q = e.q.to_domain()?;
+        let covariance = nalgebra::Matrix6::from_fn(|i, j| e.cov[i][j]);
+        let bias = Vector3::from(e.bias);
+        if !(e.t.is_finite() && bias.iter().all(|b| b.is_finite()) && is_spd(&covariance)) {
+            return Err(bad(format!(
+                "estimate of {id}: time, bias and covariance must be finite, the covariance positive definite"
+            )));
+        }
+        let mut config = base.clone();
+        config.filter.spec = spec;
+        if spec.kind == FilterKind::Qpf {
+            if let Some(n) = e.diagnostics.particles {
+                // (Bounded like a reset's: the estimate arrived over the network.)
+                config.filter.particles = n.clamp(2, MAX_PARTICLES);
+            }
+        }
+        let mut state = VehicleState::new(id, config);
+        let sigma = |i: usize| covariance[(i, i)].sqrt();
+        state.start(InitialState {
+            t_s: Some(e.t),
+            q,
+            sigma_att_rad: Vector3::new(sigma(0), sigma(1), sigma(2)),
+            bias_rad_s: bias,
+            bias_sigma_rad_s: Vector3::new(sigma(3), sigma(4), sigma(5)),
+            uniform_attitude: false,
+            covariance: Some(covariance),
+        })?;
+        state.last_gyro = last_gyro;
+        state.feed_held_rate(e.t)?;
+        state.seq = e.seq;
+        state.last_t = Some(e.t);
+        state.count_reinit("takeover");
+        if let Slot::Tracking(filter) = &state.slot {
+            state.last_good = Some(filter.estimate());
+        }
+        Ok(state)
+    }
+
     fn count_reinit(&mut self, reason: &str) {
         *self.reinits.entry(reason.to_string()).or_insert(0) += 1;
     }
@@ -672,6 +731,7 @@ impl VehicleState {
             bias_rad_s: e.bias_rad_s,
             bias_sigma_rad_s: bias_sigma,
             uniform_attitude: false,
+            covariance: None,
         })?;
         self.feed_held_rate(e.t_s.min(t_s))?;
         if let Slot::Tracking(filter) = &mut self.slot {
@@ -729,6 +789,7 @@ impl VehicleState {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: self.config.init_bias_sigma_rad_s,
             uniform_attitude: true,
+            covariance: None,
         })?;
         self.feed_held_rate(t_s)
     }
@@ -766,6 +827,7 @@ impl VehicleState {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: self.config.init_bias_sigma_rad_s,
             uniform_attitude: false,
+            covariance: None,
         })?;
         self.feed_held_rate(set.t_s)
     }
@@ -823,10 +885,10 @@ impl VehicleState {
             config.filter.spec.fiducial = Some(fid);
         }
         if let Some(n) = req.particles {
-            if !(2..=1_000_000).contains(&n) {
+            if !(2..=MAX_PARTICLES).contains(&n) {
                 return bad(
                     RejectCode::BadRequest,
-                    format!("particles must be in 2..=1000000, got {n}"),
+                    format!("particles must be in 2..={MAX_PARTICLES}, got {n}"),
                 );
             }
             config.filter.particles = n;
@@ -902,6 +964,7 @@ impl VehicleState {
                     bias_rad_s: bias,
                     bias_sigma_rad_s: bias_sigma,
                     uniform_attitude: false,
+                    covariance: None,
                 };
                 if let Err(e) = self.start(initial) {
                     self.config = previous;

@@ -176,6 +176,7 @@ fn run_filter(
         bias_rad_s: init.bias_rad_s,
         bias_sigma_rad_s: init.bias_sigma_rad_s,
         uniform_attitude: init.uniform_attitude,
+        covariance: None,
     };
     let mut filter = match build_filter(&filter_config, &initial, seed) {
         Ok(f) => f,

@@ -40,6 +40,7 @@ impl SteadyState {
             bias_rad_s: Vector3::zeros(),
             bias_sigma_rad_s: Vector3::repeat(1e-6),
             uniform_attitude: false,
+            covariance: None,
         };
         let mut s = SteadyState {
             filter: build_filter(&config, &init, 1)?,

@@ -349,6 +349,7 @@ pub fn mekf_setup(
         bias_rad_s: Vector3::zeros(),
         bias_sigma_rad_s: Vector3::repeat(tuning.initial_bias_sigma_rad_s),
         uniform_attitude: false,
+        covariance: None,
     };
     Ok((FilterConfig::new(spec, gyro), initial))
 }

@@ -830,6 +830,31 @@ pub struct HealthMsg {
     /// Checkpointing, when a state directory is configured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoints: Option<CheckpointHealthMsg>,
+    /// This instance and its fleet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fleet: Option<FleetHealthMsg>,
+}
+
+/// `P/@/health` `fleet`: this instance's place in its fleet.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FleetHealthMsg {
+    /// `single` or `dynamic`.
+    pub mode: String,
+    pub group: String,
+    pub instance: String,
+    /// The vehicle key-expression chunk served (`*` unless statically sharded).
+    pub vehicles: String,
+    /// The live members of the group (dynamic mode; just this instance otherwise), sorted.
+    pub members: Vec<String>,
+    /// Vehicles this instance owns now.
+    pub owned: usize,
+    /// Vehicles taken over from another member, and handed to another member, since start.
+    pub takeovers: u64,
+    pub released: u64,
+    /// Inputs of other members' vehicles kept for a takeover, and their last estimates.
+    pub standby_inputs: usize,
+    pub standby_estimates: usize,
 }
 
 /// `P/@/health` `checkpoints`.

@@ -1,0 +1,259 @@
+//! The fleet without the network: a filter started from a full covariance has that covariance (the
+//! particle filter's cloud too); a vehicle taken over from a published estimate continues from it; and
+//! two engines of a dynamic fleet fed the same inputs (as zenoh would) split the vehicles, and when one
+//! member goes the other takes its vehicles over with no vector set left without an estimate.
+
+use attitude_service::attitude::Quaternion;
+use attitude_service::filters::{build_filter, FilterConfig, InitialState};
+use attitude_service::sensors::GyroNoise;
+use attitude_service::service::config::{override_fleet, parse, ServiceConfig};
+use attitude_service::service::engine::{Engine, Inbound};
+use attitude_service::service::fleet::owner;
+use attitude_service::service::vehicle::VehicleState;
+use attitude_service::wire::EstimateMsg;
+use nalgebra::{Matrix6, Vector3};
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// A correlated, positive-definite covariance of `[δα; δβ]`.
+fn correlated() -> Matrix6<f64> {
+    let s = [2e-3, 1e-3, 3e-3, 1e-5, 2e-5, 1e-5];
+    let mut p = Matrix6::from_fn(|i, j| s[i] * s[j] * if i == j { 1.0 } else { 0.3 });
+    p[(0, 4)] *= -1.0;
+    p[(4, 0)] *= -1.0;
+    p
+}
+
+fn initial(p: Matrix6<f64>) -> InitialState {
+    InitialState {
+        t_s: Some(0.0),
+        q: Quaternion::new(0.1, -0.2, 0.3, 0.9).normalized().unwrap(),
+        sigma_att_rad: Vector3::new(p[(0, 0)].sqrt(), p[(1, 1)].sqrt(), p[(2, 2)].sqrt()),
+        bias_rad_s: Vector3::new(1e-5, -2e-5, 3e-6),
+        bias_sigma_rad_s: Vector3::new(p[(3, 3)].sqrt(), p[(4, 4)].sqrt(), p[(5, 5)].sqrt()),
+        uniform_attitude: false,
+        covariance: Some(p),
+    }
+}
+
+#[test]
+fn filters_start_with_the_full_covariance() {
+    let p = correlated();
+    let init = initial(p);
+    let gyro = GyroNoise {
+        sigma_v: 1e-6,
+        sigma_u: 1e-9,
+    };
+    for (spec, particles, tol) in [
+        ("mekf", 0, 1e-12),
+        ("usque", 0, 1e-6),
+        // Sample covariance of 20000 particles: ≈ 1/√(N/2) ≈ 1 % relative noise; 5 % of the scale.
+        ("qpf", 20_000, 0.05),
+    ] {
+        let mut config = FilterConfig::new(spec.parse().unwrap(), gyro);
+        if particles > 0 {
+            config.particles = particles;
+        }
+        let f = build_filter(&config, &init, 7).unwrap();
+        let e = f.estimate();
+        for i in 0..6 {
+            for j in 0..6 {
+                let scale = (p[(i, i)] * p[(j, j)]).sqrt();
+                let d = (e.covariance[(i, j)] - p[(i, j)]).abs() / scale;
+                assert!(
+                    d < tol,
+                    "{spec}: P[{i},{j}] {} vs {} ({d})",
+                    e.covariance[(i, j)],
+                    p[(i, j)]
+                );
+            }
+        }
+        let err = e.q.compose(&init.q.inverse()).angle();
+        assert!(err < 5e-4, "{spec}: mean off by {err} rad");
+    }
+    // Not positive definite: refused.
+    let mut bad = correlated();
+    bad[(0, 0)] = -1e-6;
+    let config = FilterConfig::new("mekf".parse().unwrap(), gyro);
+    assert!(build_filter(&config, &initial(bad), 7).is_err());
+}
+
+#[test]
+fn a_vehicle_taken_over_continues_from_the_estimate() {
+    let base = ServiceConfig::default().default_filter;
+    let mut e: EstimateMsg =
+        serde_json::from_str(include_str!("../proto/examples/estimate-qpf.json")).unwrap();
+    e.diagnostics.particles = Some(500);
+    let state = VehicleState::take_over("sc1", &base, &e, None).unwrap();
+    assert_eq!(state.seq(), e.seq);
+    assert_eq!(state.last_t(), Some(e.t));
+    assert_eq!(state.particles(), Some(500));
+    let now = state.estimate().unwrap();
+    assert_eq!(now.filter, e.filter);
+    assert_eq!(now.diagnostics.reinits.get("takeover"), Some(&1));
+    let dq = Quaternion::new(now.q.x, now.q.y, now.q.z, now.q.w)
+        .compose(&Quaternion::new(e.q.x, e.q.y, e.q.z, e.q.w).inverse())
+        .angle();
+    let sigma = e.sigma_deg.iter().cloned().fold(0.0, f64::max).to_radians();
+    assert!(
+        dq < sigma,
+        "the drawn cloud's mean is {dq} rad from the estimate (1σ {sigma})"
+    );
+    // A broken estimate is refused, not trusted.
+    let mut broken = e.clone();
+    broken.cov[0][0] = f64::NAN;
+    assert!(VehicleState::take_over("sc1", &base, &broken, None).is_err());
+}
+
+type Outputs = Arc<Mutex<Vec<(String, Vec<u8>)>>>;
+
+fn member(
+    name: &str,
+) -> (
+    Arc<Engine>,
+    attitude_service::service::engine::EngineThreads,
+    Outputs,
+) {
+    let mut config = parse(
+        r#"{ service: { key_prefix: "t", filter: { kind: "mekf" }, time: { reorder_window_s: 0.0 } } }"#,
+        "test",
+    )
+    .unwrap()
+    .service;
+    override_fleet(&mut config, true, None, Some(name.into()), None).unwrap();
+    let out: Outputs = Arc::default();
+    let sink = {
+        let out = out.clone();
+        Arc::new(move |k: &str, p: Vec<u8>| out.lock().unwrap().push((k.to_string(), p)))
+    };
+    let (engine, threads) = Engine::start(config, sink).unwrap();
+    (engine, threads, out)
+}
+
+fn star_set(t: f64, q: &Quaternion) -> String {
+    let a = q.attitude_matrix();
+    let obs: Vec<String> = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        .iter()
+        .map(|r| {
+            let b = a * Vector3::new(r[0], r[1], r[2]);
+            format!(
+                r#"{{"body":[{},{},{}],"ref":[{},{},{}],"sigma":1e-4}}"#,
+                b[0], b[1], b[2], r[0], r[1], r[2]
+            )
+        })
+        .collect();
+    format!(r#"{{"t":{t},"obs":[{}]}}"#, obs.join(","))
+}
+
+fn wait(what: &str, mut done: impl FnMut() -> bool) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !done() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// Estimate times published per vehicle.
+fn published(out: &Outputs) -> BTreeMap<String, Vec<f64>> {
+    let mut m: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for (k, p) in out.lock().unwrap().iter() {
+        if k.ends_with("/estimate") {
+            let e: EstimateMsg = serde_json::from_slice(p).unwrap();
+            m.entry(e.vehicle).or_default().push(e.t);
+        }
+    }
+    m
+}
+
+#[test]
+fn a_member_takes_over_without_losing_a_set() {
+    let (a, ta, out_a) = member("a");
+    let (b, tb, out_b) = member("b");
+    let both: BTreeSet<String> = ["a".to_string(), "b".to_string()].into();
+    ta.members.send(both.clone()).unwrap();
+    tb.members.send(both.clone()).unwrap();
+    let vehicles: Vec<String> = (0..8).map(|i| format!("v{i}")).collect();
+    let of_a: Vec<&String> = vehicles
+        .iter()
+        .filter(|v| owner(v, &both) == Some("a"))
+        .collect();
+    assert!(!of_a.is_empty() && of_a.len() < vehicles.len());
+    let truth = Quaternion::new(0.2, 0.1, -0.3, 0.9).normalized().unwrap();
+    // Both members receive every input (zenoh delivers to every subscriber); b also receives a's
+    // estimates. `upto` sets per vehicle, 1 s apart.
+    let feed = |from: usize, upto: usize, to_a: bool| {
+        for k in from..upto {
+            for v in &vehicles {
+                for (leaf, payload) in [
+                    ("gyro", format!(r#"{{"t":{k},"omega":[0,0,0]}}"#)),
+                    ("vectors", star_set(k as f64, &truth)),
+                ] {
+                    let inbound = Inbound {
+                        key: format!("t/{v}/{leaf}"),
+                        payload: payload.into_bytes(),
+                    };
+                    if to_a {
+                        ta.ingest.send(Some(inbound.clone())).unwrap();
+                    }
+                    tb.ingest.send(Some(inbound)).unwrap();
+                }
+            }
+        }
+    };
+    let relay = |seen: &mut usize| {
+        let new: Vec<(String, Vec<u8>)> = out_a.lock().unwrap()[*seen..].to_vec();
+        *seen += new.len();
+        for (key, payload) in new {
+            tb.ingest.send(Some(Inbound { key, payload })).unwrap();
+        }
+    };
+    let mut relayed = 0;
+    feed(0, 10, true);
+    wait("both members to publish 10 sets per vehicle", || {
+        relay(&mut relayed);
+        let (pa, pb) = (published(&out_a), published(&out_b));
+        vehicles
+            .iter()
+            .all(|v| pa.get(v).map_or(0, |t| t.len()) + pb.get(v).map_or(0, |t| t.len()) == 10)
+    });
+    // Each vehicle was processed by its owner only.
+    let pa = published(&out_a);
+    for v in &vehicles {
+        assert_eq!(pa.contains_key(v), of_a.contains(&v), "{v}");
+    }
+    assert_eq!(a.vehicles().len(), of_a.len());
+    assert_eq!(b.vehicles().len(), vehicles.len() - of_a.len());
+    // a stops publishing: its last estimates reached b for sets 0..10; sets 10..13 reach only b (a
+    // died before processing them); then b learns that a is gone.
+    feed(10, 13, false);
+    std::thread::sleep(Duration::from_millis(100));
+    tb.members.send(["b".to_string()].into()).unwrap();
+    feed(13, 15, false);
+    wait("b to publish every set of every vehicle", || {
+        let pb = published(&out_b);
+        of_a.iter().all(|v| pb.get(*v).map_or(0, |t| t.len()) == 5)
+            && vehicles
+                .iter()
+                .all(|v| pb.get(v).is_some_and(|t| t.last() == Some(&14.0)))
+    });
+    let pb = published(&out_b);
+    for v in &of_a {
+        // Sets 10..15 published by b, after a's 0..10: none lost, none repeated.
+        assert_eq!(pb[*v], vec![10.0, 11.0, 12.0, 13.0, 14.0], "{v}");
+        let e = b.state_of(v).unwrap();
+        assert_eq!(e.seq, 15, "{v}: seq continues across the takeover");
+        assert_eq!(e.diagnostics.reinits.get("takeover"), Some(&1));
+        let q = Quaternion::new(e.q.x, e.q.y, e.q.z, e.q.w);
+        assert!(q.compose(&truth.inverse()).angle() < 1e-3);
+    }
+    assert_eq!(b.vehicles().len(), vehicles.len());
+    let h = b.health().fleet.unwrap();
+    assert_eq!(
+        (h.takeovers, h.members.clone()),
+        (of_a.len() as u64, vec!["b".to_string()])
+    );
+    drop(a);
+    ta.shutdown();
+    tb.shutdown();
+}

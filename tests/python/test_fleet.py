@@ -1,0 +1,331 @@
+"""A fleet of service instances behind two real zenoh routers (zenohd 1.10.2), and static sharding.
+
+`test_fleet_through_routers`: routers R1 and R2 (R2 connects to R1); instances i1, i2 attached to R1 and
+i3 to R2 (`serve --fleet`, zenoh client mode); the sensors publish through R2, the operator queries and
+subscribes through R1. Every vehicle is tracked by exactly one instance; i1 is killed (SIGKILL); the
+survivors take its vehicles over from their last published estimates and replay what they kept since;
+a fourth instance joins and takes its share without a gap. Nothing is ever answered twice. The figures
+(vehicles per instance, takeover time, errors right after the takeover) are printed: `pytest -s`.
+
+zenohd is installed once by `scripts/ensure-zenohd.sh` (cached outside the clone).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+
+import numpy as np
+import pytest
+import zenoh
+
+from conftest import BIN, ROOT, Collector, free_port, wait_until
+from attitude_client import AttitudeClient
+from sim import Scenario, angle_error_deg, axis_errors_rad
+
+PREFIX = "fleet/attitude"
+VEHICLES = [f"fv{i:02d}" for i in range(12)]
+#: Cheap filters for most; three particle filters to exercise the takeover's particle draw.
+OVERRIDES = {v: {"kind": "qpf", "particles": 300} for v in VEHICLES[:3]}
+SPEED = 2.0  # simulated seconds per wall second
+DURATION_S = 44.0
+
+
+def zenohd_path() -> str:
+    out = subprocess.run(
+        ["bash", str(ROOT / "scripts" / "ensure-zenohd.sh")], check=True, capture_output=True, text=True
+    )
+    return out.stdout.strip().splitlines()[-1]
+
+
+class Proc:
+    def __init__(self, name: str, args: list[str], workdir: pathlib.Path):
+        self.name = name
+        self.log_path = workdir / f"{name}.log"
+        self._log = open(self.log_path, "wb")
+        env = dict(os.environ)
+        env.setdefault("RUST_LOG", "info")
+        self.proc = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT, env=env)
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def stop(self, sig=signal.SIGTERM, timeout=10.0):
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        try:
+            code = self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            code = self.proc.wait(timeout=10)
+        self._log.close()
+        return code
+
+
+def router(workdir: pathlib.Path, name: str, port: int, connect: list[str]) -> Proc:
+    config = {
+        "mode": "router",
+        "listen": {"endpoints": [f"tcp/127.0.0.1:{port}"]},
+        "connect": {"endpoints": connect},
+        "scouting": {"multicast": {"enabled": False}},
+    }
+    path = workdir / f"{name}.json5"
+    path.write_text(json.dumps(config))
+    return Proc(name, [zenohd_path(), "--config", str(path)], workdir)
+
+
+def instance(workdir: pathlib.Path, name: str, router_endpoint: str) -> Proc:
+    config = {
+        "zenoh": {
+            "mode": "client",
+            "connect": {"endpoints": [router_endpoint]},
+            "scouting": {"multicast": {"enabled": False}},
+        },
+        "service": {"key_prefix": PREFIX, "filter": {"kind": "mekf"}, "vehicles": OVERRIDES},
+    }
+    path = workdir / f"{name}.json5"
+    path.write_text(json.dumps(config))
+    return Proc(name, [str(BIN), "serve", "--config", str(path), "--fleet", "--instance", name], workdir)
+
+
+def client_config(endpoint: str) -> zenoh.Config:
+    c = zenoh.Config()
+    c.insert_json5("mode", '"client"')
+    c.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    c.insert_json5("scouting/multicast/enabled", "false")
+    return c
+
+
+def owners(op: AttitudeClient) -> dict[str, list[str]]:
+    """{instance: [vehicles it owns]} from every instance's P/@/instance/<name>/vehicles."""
+    out = {}
+    for key, ok, payload in op.query("@/instance/*/vehicles", timeout=2.0):
+        if ok:
+            name = key.split("/")[-2]
+            out[name] = sorted(v["vehicle"] for v in json.loads(payload))
+    return out
+
+
+def attitude_replies(op: AttitudeClient) -> list[str]:
+    """The vehicles of every reply to one get on P/*/attitude (duplicates kept)."""
+    replies = op.query("*/attitude", timeout=2.0)
+    assert all(ok for _, ok, _ in replies), replies
+    return sorted(json.loads(p)["vehicle"] for _, _, p in replies)
+
+
+class Sensors(threading.Thread):
+    """Publishes every vehicle's scenario in (scaled) real time: gyro at 10 Hz, a vector set at 2 Hz."""
+
+    def __init__(self, client: AttitudeClient):
+        super().__init__(daemon=True)
+        self.client = client
+        self.scenarios = {v: Scenario(seed=100 + i, duration_s=DURATION_S, vec_hz=2.0) for i, v in enumerate(VEHICLES)}
+        self.chunks = {v: s.chunks() for v, s in self.scenarios.items()}
+        self.sent_sets: dict[str, list[float]] = {v: [] for v in VEHICLES}
+        self.sim_t = 0.0
+        self.start_wall = None
+
+    def run(self):
+        self.start_wall = time.monotonic()
+        n = len(next(iter(self.chunks.values())))
+        for k in range(n):
+            t = k / 2.0
+            delay = self.start_wall + t / SPEED - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            for v in VEHICLES:
+                c = self.chunks[v][k]
+                if c.gyro:
+                    self.client.publish_gyro_batch(v, [(tg, list(w)) for tg, w in c.gyro])
+                self.client.publish_vectors(
+                    v, c.t, [{"body": list(b), "ref": list(r), "sigma": s, "sensor": n_} for b, r, s, n_ in c.obs]
+                )
+                self.sent_sets[v].append(c.t)
+            self.sim_t = t
+
+
+@pytest.fixture
+def fleet_dir():
+    d = pathlib.Path(tempfile.mkdtemp(prefix="attitude-fleet-"))
+    yield d
+
+
+def test_fleet_through_routers(fleet_dir):
+    p1, p2 = free_port(), free_port()
+    r1_ep, r2_ep = f"tcp/127.0.0.1:{p1}", f"tcp/127.0.0.1:{p2}"
+    procs: list[Proc] = []
+    try:
+        procs.append(router(fleet_dir, "r1", p1, []))
+        procs.append(router(fleet_dir, "r2", p2, [r1_ep]))
+        time.sleep(0.5)
+        inst = {
+            "i1": instance(fleet_dir, "i1", r1_ep),
+            "i2": instance(fleet_dir, "i2", r1_ep),
+            "i3": instance(fleet_dir, "i3", r2_ep),
+        }
+        procs += inst.values()
+        op = AttitudeClient(r1_ep, prefix=PREFIX, config=client_config(r1_ep))
+        sensor = AttitudeClient(r2_ep, prefix=PREFIX, config=client_config(r2_ep))
+        estimates = Collector()
+        op.subscribe_estimates(estimates)
+        wait_until(lambda: len(owners(op)) == 3, 20, "three instances answering")
+        # All three see each other (the fleet health lists the members).
+        wait_until(
+            lambda: all(
+                json.loads(p)["fleet"]["members"] == ["i1", "i2", "i3"]
+                for _, ok, p in op.query("@/instance/*/health", timeout=2.0)
+                if ok
+            ),
+            20,
+            "every instance to see three members",
+        )
+
+        sensors = Sensors(sensor)
+        sensors.start()
+        # --- phase 1: every vehicle tracked by exactly one instance.
+        wait_until(lambda: sensors.sim_t >= 12.0, 30, "12 s of data")
+        before = owners(op)
+        owned = sorted(v for vs in before.values() for v in vs)
+        assert owned == sorted(VEHICLES), before
+        assert attitude_replies(op) == sorted(VEHICLES)
+        victim = max(before, key=lambda k: len(before[k]))
+        moved = before[victim]
+        assert moved, before
+        print(f"\nbefore the kill, vehicles per instance: { {k: len(v) for k, v in before.items()} } {before}")
+
+        # --- phase 2: SIGKILL the instance with the most vehicles.
+        t_kill = time.monotonic()
+        sim_kill = sensors.sim_t
+        inst[victim].proc.send_signal(signal.SIGKILL)
+        inst[victim].proc.wait(timeout=10)
+        survivors = [k for k in inst if k != victim]
+
+        def taken_over():
+            o = owners(op)
+            return set(o) == set(survivors) and sorted(v for vs in o.values() for v in vs) == sorted(VEHICLES)
+
+        wait_until(taken_over, 15, "the survivors to own every vehicle", interval=0.02)
+        takeover_s = time.monotonic() - t_kill
+        after = owners(op)
+        print(f"killed {victim} at sim t = {sim_kill:.1f} s; survivors own every vehicle after {takeover_s:.2f} s")
+        print(f"after the kill, vehicles per instance: { {k: len(v) for k, v in after.items()} } {after}")
+
+        # The first estimate of each taken-over vehicle from its new owner (diagnostics.reinits.takeover):
+        # its error against the truth at its time.
+        def first_takeover(v):
+            for e in estimates.where(vehicle=v):
+                if e["diagnostics"].get("reinits", {}).get("takeover", 0) >= 1:
+                    return e
+            return None
+
+        wait_until(lambda: all(first_takeover(v) for v in moved), 15, "estimates from the new owners")
+        t_first = {}
+        for v in moved:
+            e = first_takeover(v)
+            truth = sensors.scenarios[v].truth(e["t"])
+            err = angle_error_deg(truth, e["q"])
+            ratio = np.abs(axis_errors_rad(truth, e["q"])) / np.radians(e["sigma_deg"])
+            print(
+                f"  {v} ({e['filter']}): first estimate after takeover t = {e['t']:.1f} s, seq {e['seq']}, "
+                f"error {err * 3600:.1f} arcsec, |err|/sigma {np.round(ratio, 2).tolist()}"
+            )
+            assert err < 0.01, (v, err)  # 36 arcsec: the star trackers give ~20"
+            assert np.all(ratio < 4.0), (v, ratio)
+            t_first[v] = e["t"]
+        # Queries keep being answered, each once.
+        assert attitude_replies(op) == sorted(VEHICLES)
+        for v in VEHICLES:
+            replies = op.query(f"{v}/attitude", timeout=2.0)
+            assert len(replies) == 1 and replies[0][1], (v, replies)
+
+        # --- phase 3: a fourth instance joins (through R2) and takes its share without a gap.
+        wait_until(lambda: sensors.sim_t >= sim_kill + 8.0, 30, "8 more seconds")
+        inst["i4"] = instance(fleet_dir, "i4", r2_ep)
+        procs.append(inst["i4"])
+        wait_until(lambda: len(owners(op).get("i4", [])) > 0, 20, "i4 to own vehicles")
+        sim_join = sensors.sim_t
+        joined = owners(op)
+        print(f"i4 joined at sim t = {sim_join:.1f} s; vehicles per instance: { {k: len(v) for k, v in joined.items()} }")
+        sensors.join(timeout=60)
+        time.sleep(1.5)  # the last estimates
+        final = owners(op)
+        assert sorted(v for vs in final.values() for v in vs) == sorted(VEHICLES), final
+        assert attitude_replies(op) == sorted(VEHICLES)
+
+        # No gap: every vector set sent has an estimate (from whichever instance owned the vehicle).
+        missing = {}
+        for v in VEHICLES:
+            got = {round(e["t"], 6) for e in estimates.where(vehicle=v)}
+            first = min(got)
+            lost = [t for t in sensors.sent_sets[v] if t >= first and round(t, 6) not in got]
+            if lost:
+                missing[v] = lost
+        print(f"vector sets without an estimate: {sum(len(x) for x in missing.values())} {missing}")
+        assert not missing, missing
+        # Final accuracy of every vehicle.
+        worst = 0.0
+        for v in VEHICLES:
+            e = op.get_state(v)
+            worst = max(worst, angle_error_deg(sensors.scenarios[v].truth(e["t"]), e["q"]))
+        print(f"at the end (t = {DURATION_S:.0f} s): worst error {worst * 3600:.1f} arcsec over {len(VEHICLES)} vehicles")
+        assert worst < 0.01
+        op.close()
+        sensor.close()
+    finally:
+        for p in procs:
+            p.stop()
+        for p in procs:
+            if p.name.startswith("i"):
+                assert "panicked" not in p.log(), p.log()[-3000:]
+
+
+def test_static_sharding(fleet_dir):
+    """Two instances split the vehicles by key expression (`--vehicles 'a$*'` / `'b$*'`): each receives,
+    tracks and answers for its own only; a wildcard get sees every vehicle once."""
+    ports = [free_port(), free_port()]
+    eps = [f"tcp/127.0.0.1:{p}" for p in ports]
+    procs = []
+    try:
+        for name, pattern, ep in [("sa", "a$*", eps[0]), ("sb", "b$*", eps[1])]:
+            config = {
+                "zenoh": {"mode": "peer", "listen": {"endpoints": [ep]}, "scouting": {"multicast": {"enabled": False}}},
+                "service": {"key_prefix": PREFIX, "filter": {"kind": "mekf"}},
+            }
+            path = fleet_dir / f"{name}.json5"
+            path.write_text(json.dumps(config))
+            procs.append(
+                Proc(name, [str(BIN), "serve", "--config", str(path), "--instance", name, "--vehicles", pattern], fleet_dir)
+            )
+        c = zenoh.Config()
+        c.insert_json5("mode", '"peer"')
+        c.insert_json5("connect/endpoints", json.dumps(eps))
+        c.insert_json5("scouting/multicast/enabled", "false")
+        cl = AttitudeClient(eps[0], prefix=PREFIX, config=c)
+        wait_until(lambda: len(owners(cl)) == 2, 20, "both shards answering")
+        vehicles = ["a1", "a2", "b1", "b2", "c1"]
+        for i, v in enumerate(vehicles):
+            s = Scenario(seed=i, duration_s=2.0)
+            for ch in s.chunks():
+                cl.publish_gyro_batch(v, [(t, list(w)) for t, w in ch.gyro])
+                cl.publish_vectors(v, ch.t, [{"body": list(b), "ref": list(r), "sigma": sg} for b, r, sg, _ in ch.obs])
+        wait_until(lambda: owners(cl) == {"sa": ["a1", "a2"], "sb": ["b1", "b2"]}, 10, "each shard to track its own")
+        time.sleep(0.5)
+        assert owners(cl) == {"sa": ["a1", "a2"], "sb": ["b1", "b2"]}  # c1 matches no shard: nobody tracks it
+        assert attitude_replies(cl) == ["a1", "a2", "b1", "b2"]
+        assert len(cl.query("a1/attitude")) == 1
+        assert cl.query("c1/attitude", timeout=1.0) == []  # no instance serves c1
+        healths = [json.loads(p) for _, ok, p in cl.query("@/instance/*/health") if ok]
+        assert sorted((h["fleet"]["instance"], h["fleet"]["vehicles"], h["vehicles"]) for h in healths) == [
+            ("sa", "a$*", 2),
+            ("sb", "b$*", 2),
+        ]
+        cl.close()
+    finally:
+        for p in procs:
+            assert p.stop() == 0
