@@ -29,12 +29,17 @@ from conftest import BIN, ROOT, Collector, free_port, wait_until
 from attitude_client import AttitudeClient
 from sim import Scenario, angle_error_deg, axis_errors_rad
 
-PREFIX = "fleet/attitude"
+#: The shipped example configurations are what runs (the routers are the test's own, so is the prefix).
+ROUTER_CONFIG = ROOT / "config" / "fleet" / "router.json5"
+INSTANCE_CONFIG = ROOT / "config" / "fleet" / "instance.json5"
+PREFIX = "attitude"
+#: Every vehicle runs the default filter (qpf:average, 1000 particles): a takeover draws the particles.
 VEHICLES = [f"fv{i:02d}" for i in range(12)]
-#: Cheap filters for most; three particle filters to exercise the takeover's particle draw.
-OVERRIDES = {v: {"kind": "qpf", "particles": 300} for v in VEHICLES[:3]}
 SPEED = 2.0  # simulated seconds per wall second
-DURATION_S = 44.0
+DURATION_S = 56.0
+#: The instances' zenoh lease in config/fleet/instance.json5 (ms): a frozen instance (lost link) is
+#: declared gone after this.
+LEASE_MS = 3000
 
 
 def zenohd_path() -> str:
@@ -69,29 +74,15 @@ class Proc:
 
 
 def router(workdir: pathlib.Path, name: str, port: int, connect: list[str]) -> Proc:
-    config = {
-        "mode": "router",
-        "listen": {"endpoints": [f"tcp/127.0.0.1:{port}"]},
-        "connect": {"endpoints": connect},
-        "scouting": {"multicast": {"enabled": False}},
-    }
-    path = workdir / f"{name}.json5"
-    path.write_text(json.dumps(config))
-    return Proc(name, [zenohd_path(), "--config", str(path)], workdir)
+    args = [zenohd_path(), "-c", str(ROUTER_CONFIG), "-l", f"tcp/127.0.0.1:{port}"]
+    for ep in connect:
+        args += ["-e", ep]
+    return Proc(name, args, workdir)
 
 
 def instance(workdir: pathlib.Path, name: str, router_endpoint: str) -> Proc:
-    config = {
-        "zenoh": {
-            "mode": "client",
-            "connect": {"endpoints": [router_endpoint]},
-            "scouting": {"multicast": {"enabled": False}},
-        },
-        "service": {"key_prefix": PREFIX, "filter": {"kind": "mekf"}, "vehicles": OVERRIDES},
-    }
-    path = workdir / f"{name}.json5"
-    path.write_text(json.dumps(config))
-    return Proc(name, [str(BIN), "serve", "--config", str(path), "--fleet", "--instance", name], workdir)
+    args = [str(BIN), "serve", "--config", str(INSTANCE_CONFIG), "--connect", router_endpoint, "--instance", name]
+    return Proc(name, args, workdir)
 
 
 def client_config(endpoint: str) -> zenoh.Config:
@@ -244,8 +235,42 @@ def test_fleet_through_routers(fleet_dir):
             replies = op.query(f"{v}/attitude", timeout=2.0)
             assert len(replies) == 1 and replies[0][1], (v, replies)
 
-        # --- phase 3: a fourth instance joins (through R2) and takes its share without a gap.
-        wait_until(lambda: sensors.sim_t >= sim_kill + 8.0, 30, "8 more seconds")
+        # --- phase 3: a lost link: a survivor freezes (SIGSTOP: its link stays open, silent). The
+        # others take its vehicles when its lease expires; when it resumes it rejoins and takes its
+        # share back; nothing is answered twice at any time.
+        wait_until(lambda: sensors.sim_t >= sim_kill + 6.0, 30, "6 more seconds")
+        frozen = survivors[0]
+        others = [k for k in survivors if k != frozen]
+        t_stop = time.monotonic()
+        inst[frozen].proc.send_signal(signal.SIGSTOP)
+
+        def others_own_all():
+            o = owners(op)
+            o.pop(frozen, None)
+            return sorted(v for vs in o.values() for v in vs) == sorted(VEHICLES)
+
+        wait_until(others_own_all, 20, "the others to take the frozen instance's vehicles", interval=0.05)
+        lost_link_s = time.monotonic() - t_stop
+        print(f"froze {frozen} (lost link): the others own every vehicle after {lost_link_s:.2f} s (lease {LEASE_MS} ms)")
+        assert lost_link_s < LEASE_MS / 1000 + 2.0
+        assert attitude_replies(op) == sorted(VEHICLES)
+        time.sleep(1.0)
+        inst[frozen].proc.send_signal(signal.SIGCONT)
+        t_cont = time.monotonic()
+
+        def rejoined():
+            healths = [json.loads(p) for _, ok, p in op.query("@/instance/*/health", timeout=2.0) if ok]
+            everyone = all(h["fleet"]["members"] == sorted(survivors) for h in healths)
+            o = owners(op)
+            return everyone and len(healths) == 2 and sorted(v for vs in o.values() for v in vs) == sorted(VEHICLES)
+
+        wait_until(rejoined, 20, "the frozen one to rejoin")
+        print(f"{frozen} resumed; every member sees it again after {time.monotonic() - t_cont:.2f} s: "
+              f"{ {k: len(v) for k, v in owners(op).items()} }")
+        assert attitude_replies(op) == sorted(VEHICLES)
+
+        # --- phase 4: a fourth instance joins (through R2) and takes its share without a gap.
+        wait_until(lambda: sensors.sim_t >= sim_kill + 24.0, 40, "more data")
         inst["i4"] = instance(fleet_dir, "i4", r2_ep)
         procs.append(inst["i4"])
         wait_until(lambda: len(owners(op).get("i4", [])) > 0, 20, "i4 to own vehicles")
