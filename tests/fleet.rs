@@ -257,3 +257,22 @@ fn a_member_takes_over_without_losing_a_set() {
     ta.shutdown();
     tb.shutdown();
 }
+
+#[test]
+fn the_shipped_fleet_instance_configuration_is_valid() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/fleet/instance.json5");
+    let file = attitude_service::service::config::load(&path).unwrap();
+    let f = &file.service.fleet;
+    assert_eq!(f.mode, attitude_service::service::fleet::FleetMode::Dynamic);
+    assert!(f.standby_s > 3.0, "standby must cover the 3 s lease");
+    // Bad fleet settings are refused with the option's name.
+    for (bad, what) in [
+        (r#"{service:{fleet:{mode:"cluster"}}}"#, "fleet.mode"),
+        (r#"{service:{fleet:{instance:"a/b"}}}"#, "fleet.instance"),
+        (r#"{service:{fleet:{vehicles:"a/b"}}}"#, "fleet.vehicles"),
+        (r#"{service:{fleet:{standby_s:-1}}}"#, "fleet.standby_s"),
+    ] {
+        let e = parse(bad, "test").err().expect(bad).to_string();
+        assert!(e.contains(what), "{bad}: {e}");
+    }
+}
