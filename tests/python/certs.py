@@ -1,5 +1,6 @@
-"""Test certificates made with `openssl` at test time: a CA, a server certificate for localhost/127.0.0.1,
-and client certificates whose common names are the access-control subjects (``sensor-sc1``, ``operator``...).
+"""Test certificates made with `openssl` at test time: a CA, a server certificate for localhost and
+127.0.0.1, and client certificates whose common names are the access-control subjects (``sensor-sc1``,
+``operator``...).
 
 ``make_pki(dir, clients)`` writes ``ca.pem``/``ca.key``, ``server.pem``/``server.key`` and ``<cn>.pem``/``<cn>.key``
 for every client common name, and returns ``dir``. ``make_ca(dir, name)`` alone makes another (untrusted) CA.
