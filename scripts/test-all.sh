@@ -5,7 +5,8 @@
 #      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all);
 #   3. the black-box Python suite (eclipse-zenoh 1.10.2 in .venv, created and filled from PyPI) against
 #      the release binary.
-# Needs a Rust toolchain and python3; installs nothing outside the project directory.
+# Needs a Rust toolchain and python3. Installs Python packages into .venv in the project, and the zenoh
+# router zenohd 1.10.2 once into ~/.cache/attitude-service (scripts/ensure-zenohd.sh; ZENOHD_CACHE moves it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
