@@ -281,6 +281,9 @@ def test_fleet_through_routers(fleet_dir):
         time.sleep(1.5)  # the last estimates
         final = owners(op)
         assert sorted(v for vs in final.values() for v in vs) == sorted(VEHICLES), final
+        # The Python client merges the instances' answers.
+        assert [r["vehicle"] for r in op.vehicles()] == sorted(VEHICLES)
+        assert {k: h["vehicles"] for k, h in op.instances().items()} == {k: len(v) for k, v in final.items()}
         assert attitude_replies(op) == sorted(VEHICLES)
 
         # No gap: every vector set sent has an estimate (from whichever instance owned the vehicle).
