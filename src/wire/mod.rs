@@ -595,16 +595,13 @@ pub struct GateCountsMsg {
     pub accepted: u64,
     pub gated: u64,
     /// Observations of a `gravity` sensor left out because their norm deviated beyond `norm_gate`.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    /// (Always written: a checkpoint holds these counts in bincode, which has no optional fields.)
+    #[serde(default)]
     pub norm_gated: u64,
     /// Observations of a `field` sensor left out as disturbed (norm or dip) or in the hold-off after a
     /// disturbance.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default)]
     pub disturbed: u64,
-}
-
-fn is_zero(x: &u64) -> bool {
-    *x == 0
 }
 
 /// `P/V/estimate` and the `P/V/state` reply.
