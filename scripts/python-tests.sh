@@ -24,6 +24,7 @@ PACKAGES=(
   "scipy==1.17.1"
   "vqf==2.1.2"
   "h5py==3.16.0"
+  "ahrs==0.3.1"
 )
 
 if [[ ! -x "$PY" ]]; then

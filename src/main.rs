@@ -248,6 +248,10 @@ struct ImuBenchArgs {
     /// Write the estimated quaternions here.
     #[arg(long)]
     estimates_out: Option<PathBuf>,
+    /// Override fields of the benchmark's tuning with a JSON object (for experiments), e.g.
+    /// '{"sigma_v": 2e-3, "field": {"heading_only": true, ...}}' (see tools::imu_bench::MekfTuning).
+    #[arg(long)]
+    tuning: Option<String>,
 }
 
 #[derive(Args)]
@@ -314,6 +318,7 @@ fn main() -> Result<()> {
             let line = attitude_service::tools::imu_bench::main_entry(
                 &args.samples,
                 args.estimates_out.as_deref(),
+                args.tuning.as_deref(),
             )?;
             println!("{line}");
             Ok(())

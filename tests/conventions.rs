@@ -363,6 +363,7 @@ fn tv_e_q_method_recovers_the_truth() {
                 reference: *r,
                 sigma: 1e-3,
                 sensor: None,
+                heading_about: None,
             }
         })
         .collect();

@@ -96,6 +96,7 @@ fn star_obs(q_true: &Quaternion, refs: &[Vector3<f64>], sigma: f64) -> Vec<Vecto
             reference: *r,
             sigma,
             sensor: Some("st1".into()),
+            heading_about: None,
         })
         .collect()
 }

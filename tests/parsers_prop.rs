@@ -1419,6 +1419,7 @@ fn measurements(restrict: Restrict) -> impl Strategy<Value = Vec<Measurement>> {
                                 reference,
                                 sigma,
                                 sensor: None,
+                                heading_about: None,
                             });
                         }
                         Measurement::Vectors(ObservationSet {

@@ -514,6 +514,8 @@ fn full_estimate() -> EstimateMsg {
                 GateCountsMsg {
                     accepted: 20,
                     gated: 1,
+                    norm_gated: 2,
+                    disturbed: 3,
                 },
             )]),
             consecutive_gated: 0,

@@ -44,6 +44,7 @@ fn observations(
             reference: *r,
             sigma,
             sensor: None,
+            heading_about: None,
         })
         .collect()
 }
@@ -79,6 +80,7 @@ fn undecidable_average_falls_back_to_the_propagated_fiducial_and_counts_it() {
         reference: Vector3::x(),
         sigma: 0.01,
         sensor: None,
+        heading_about: None,
     }];
     FilterCore::update(&mut qpf, &obs).unwrap();
     let e = FilterCore::estimate(&qpf);
@@ -170,6 +172,7 @@ fn a_refused_update_rolls_back() {
             reference: Vector3::x(),
             sigma: 1e-3,
             sensor: None,
+            heading_about: None,
         }],
     });
     assert!(matches!(

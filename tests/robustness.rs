@@ -46,6 +46,7 @@ fn set_at(t: f64, truth: &Quaternion, sensor: &str) -> Measurement {
                 reference: *r,
                 sigma: STAR_SIGMA,
                 sensor: Some(sensor.into()),
+                heading_about: None,
             })
             .collect(),
     })
@@ -287,6 +288,7 @@ fn the_gate_refuses_outliers_per_sensor_and_a_wrong_filter_reinitialises() {
         reference: Vector3::new(1.0, 1.0, 0.0).normalize(),
         sigma: STAR_SIGMA,
         sensor: Some("sun".into()),
+        heading_about: None,
     });
     let out = feed(
         &mut v,
@@ -485,6 +487,7 @@ fn rejections_at_release_name_their_stream() {
             reference: Vector3::x(),
             sigma: 1e-3,
             sensor: None,
+            heading_about: None,
         }],
     });
     v.on_measurement(single, 0.0, &p, &mut out).unwrap();

@@ -212,6 +212,7 @@ fn simulate(
                     reference: *r,
                     sigma: sigma_obs,
                     sensor: None,
+                    heading_about: None,
                 })
                 .collect();
             f.process(&Measurement::Vectors(ObservationSet {
@@ -449,6 +450,7 @@ fn obs(body: Vector3<f64>, reference: Vector3<f64>, sigma: f64) -> VectorObserva
         reference,
         sigma,
         sensor: None,
+        heading_about: None,
     }
 }
 

@@ -8,7 +8,7 @@ use super::{
     FilterSpec, InitialState, SavedFilterRef,
 };
 use crate::attitude::{skew, Quaternion};
-use crate::sensors::{GyroNoise, VectorObservation};
+use crate::sensors::{imu, GyroNoise, VectorObservation};
 use nalgebra::{Matrix3, Matrix3x6, Matrix6, Matrix6x3, Vector3, Vector6};
 
 /// Rotation angle below which `Φ` uses Taylor series (no division by `‖ω̂‖`).
@@ -111,6 +111,50 @@ pub fn joseph_update(
     })
 }
 
+/// The result of one heading-only update ([`heading_update`]).
+pub struct HeadingUpdate {
+    pub covariance: Matrix6<f64>,
+    pub nis: f64,
+    pub correction: Vector6<f64>,
+}
+
+/// One heading-only update (`crate::sensors::imu`): the scalar measurement `y = H δx + v` with
+/// `H = [hᵀ, 0₃]` ([`crate::sensors::imu::heading_jacobian`]; `h·v = 1` for the body-frame vertical `v`,
+/// and `h` also holds the leak of a tilt error into the heading, `∝ tan dip`), `R = σ_ψ²`, innovation
+/// `nu`. The attitude part of the Kalman gain is projected on `v` (`K_α ← v vᵀ K_α`) so that the update
+/// turns the estimate about the vertical only, never tilts it; the covariance follows in Joseph form
+/// `P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ` with the full `H`, which holds for any gain. `None` when
+/// `S ≤ 0`.
+pub fn heading_update(
+    p: &Matrix6<f64>,
+    h_att: &Vector3<f64>,
+    v_body: &Vector3<f64>,
+    sigma_psi: f64,
+    nu: f64,
+) -> Option<HeadingUpdate> {
+    let h = Vector6::new(h_att[0], h_att[1], h_att[2], 0.0, 0.0, 0.0);
+    let r = sigma_psi * sigma_psi;
+    let ph = p * h;
+    let s = h.dot(&ph) + r;
+    if !(s > 0.0 && s.is_finite()) {
+        return None;
+    }
+    let mut gain = ph / s;
+    let ka = Vector3::new(gain[0], gain[1], gain[2]);
+    let ka = v_body * v_body.dot(&ka);
+    gain[0] = ka[0];
+    gain[1] = ka[1];
+    gain[2] = ka[2];
+    let ikh = Matrix6::identity() - gain * h.transpose();
+    let mut covariance = ikh * p * ikh.transpose() + gain * gain.transpose() * r;
+    symmetrize(&mut covariance);
+    Some(HeadingUpdate {
+        covariance,
+        nis: nu * nu / s,
+        correction: gain * nu,
+    })
+}
+
 /// The MEKF state.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Mekf {
@@ -179,7 +223,25 @@ impl FilterCore for Mekf {
         let mut p = self.p;
         let mut dx = Vector6::zeros();
         let mut nis = 0.0;
+        let mut dof = 0;
         for (index, o) in observations.iter().enumerate() {
+            if let Some(up) = &o.heading_about {
+                // A heading-only observation (crate::sensors::imu): y = −ψ(Â⁻), H = [hᵀ, 0].
+                let Some((e1, e2, horizontal)) = imu::heading_basis(&o.reference, up) else {
+                    continue;
+                };
+                let v = a * (up / up.norm());
+                let h = imu::heading_jacobian(&a, &o.reference, &e2, horizontal);
+                let y = -imu::heading_residual(&a, &o.body, &e1, &e2);
+                let nu = y - (h[0] * dx[0] + h[1] * dx[1] + h[2] * dx[2]);
+                let u = heading_update(&p, &h, &v, imu::heading_sigma_rad(o.sigma, horizontal), nu)
+                    .ok_or(FilterError::SingularInnovation { index })?;
+                dx += u.correction;
+                p = u.covariance;
+                nis += u.nis;
+                dof += 1;
+                continue;
+            }
             let predicted = a * o.reference;
             let h = measurement_jacobian(&predicted);
             let nu = o.body - predicted - h * dx;
@@ -188,6 +250,7 @@ impl FilterCore for Mekf {
             dx += u.correction;
             p = u.covariance;
             nis += u.nis;
+            dof += 3;
         }
         let dalpha = Vector3::new(dx[0], dx[1], dx[2]);
         let q = Quaternion::from_rotation_vector(&dalpha)
@@ -206,7 +269,7 @@ impl FilterCore for Mekf {
         self.p = p;
         self.diagnostics.updates += 1;
         self.diagnostics.nis = Some(nis);
-        self.diagnostics.nis_dof = Some(3 * observations.len());
+        self.diagnostics.nis_dof = Some(dof);
         Ok(())
     }
 

@@ -490,6 +490,14 @@ pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
                         "observation {i}: sigma must be positive and finite"
                     )));
                 }
+                if let Some(up) = &o.heading_about {
+                    check_finite(up.iter().copied(), "heading axis")?;
+                    if up.norm() == 0.0 {
+                        return Err(FilterError::InvalidMeasurement(format!(
+                            "observation {i}: zero heading axis"
+                        )));
+                    }
+                }
                 if o.reference.norm() == 0.0 {
                     return Err(FilterError::InvalidMeasurement(format!(
                         "observation {i}: zero reference vector"

@@ -35,7 +35,7 @@ use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::rng::{standard_normal, ziggurat};
 use crate::sensors::gyro::normal3;
-use crate::sensors::{GyroNoise, VectorObservation};
+use crate::sensors::{imu, GyroNoise, VectorObservation};
 use nalgebra::{Matrix6, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_distr::{Beta, Distribution, StandardNormal};
@@ -243,7 +243,7 @@ pub struct Qpf {
     log_lik: Vec<f64>,
     /// Per-observation constants of the current update (reused buffer).
     #[serde(skip)]
-    obs_terms: Vec<[f64; 7]>,
+    obs_terms: Vec<[f64; 11]>,
     #[serde(skip)]
     resample_index: Vec<usize>,
     /// Local states `[δp; β − β_ref]` of every particle about the fiducial of the last
@@ -480,17 +480,46 @@ impl Qpf {
     fn log_likelihoods(&mut self, observations: &[VectorObservation]) {
         // Per observation: reference, measurement and −½σ⁻², computed once (the buffer is reused).
         self.obs_terms.clear();
-        self.obs_terms.extend(observations.iter().map(|o| {
-            let (r, b) = (&o.reference, &o.body);
-            [
-                r[0],
-                r[1],
-                r[2],
-                b[0],
-                b[1],
-                b[2],
-                -0.5 / (o.sigma * o.sigma),
-            ]
+        // A heading-only observation (crate::sensors::imu) holds [e₁; b; −½σ_ψ⁻²; e₂; 1]: its
+        // log-likelihood is −½ψ²/σ_ψ², ψ = atan2(b·(A e₂), b·(A e₁)). One whose reference has no
+        // horizontal part says nothing and is left out.
+        self.obs_terms.extend(observations.iter().filter_map(|o| {
+            let b = &o.body;
+            match &o.heading_about {
+                None => {
+                    let r = &o.reference;
+                    Some([
+                        r[0],
+                        r[1],
+                        r[2],
+                        b[0],
+                        b[1],
+                        b[2],
+                        -0.5 / (o.sigma * o.sigma),
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                    ])
+                }
+                Some(up) => {
+                    let (e1, e2, horizontal) = imu::heading_basis(&o.reference, up)?;
+                    let s = imu::heading_sigma_rad(o.sigma, horizontal);
+                    Some([
+                        e1[0],
+                        e1[1],
+                        e1[2],
+                        b[0],
+                        b[1],
+                        b[2],
+                        -0.5 / (s * s),
+                        e2[0],
+                        e2[1],
+                        e2[2],
+                        1.0,
+                    ])
+                }
+            }
         }));
         let terms = &self.obs_terms[..];
         let c = &self.cloud;
@@ -517,6 +546,18 @@ impl Qpf {
             ];
             let mut ll = 0.0;
             for t in terms {
+                if t[10] != 0.0 {
+                    // b·(A e₁), b·(A e₂).
+                    let c = t[3] * (a[0] * t[0] + a[1] * t[1] + a[2] * t[2])
+                        + t[4] * (a[3] * t[0] + a[4] * t[1] + a[5] * t[2])
+                        + t[5] * (a[6] * t[0] + a[7] * t[1] + a[8] * t[2]);
+                    let sn = t[3] * (a[0] * t[7] + a[1] * t[8] + a[2] * t[9])
+                        + t[4] * (a[3] * t[7] + a[4] * t[8] + a[5] * t[9])
+                        + t[5] * (a[6] * t[7] + a[7] * t[8] + a[8] * t[9]);
+                    let psi = sn.atan2(c);
+                    ll += t[6] * psi * psi;
+                    continue;
+                }
                 let d0 = t[3] - (a[0] * t[0] + a[1] * t[1] + a[2] * t[2]);
                 let d1 = t[4] - (a[3] * t[0] + a[4] * t[1] + a[5] * t[2]);
                 let d2 = t[5] - (a[6] * t[0] + a[7] * t[1] + a[8] * t[2]);

@@ -393,6 +393,21 @@ impl FilterCore for Usque {
     /// not spread the prediction, which is reported as `SingularInnovation` with the first observation
     /// whose leading block fails.
     fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError> {
+        // USQUE has no scalar update: a heading-only observation is used as the full vector
+        // (crate::sensors::imu; it may tilt the estimate).
+        let owned: Vec<VectorObservation>;
+        let observations = if observations.iter().any(|o| o.heading_about.is_some()) {
+            owned = observations
+                .iter()
+                .map(|o| VectorObservation {
+                    heading_about: None,
+                    ..o.clone()
+                })
+                .collect();
+            &owned[..]
+        } else {
+            observations
+        };
         if observations.is_empty() {
             return Ok(());
         }

@@ -6,6 +6,7 @@
 //! the sender's clock.
 
 pub mod gyro;
+pub mod imu;
 pub mod vector;
 
 pub use gyro::{GyroNoise, GyroSimulator};
@@ -31,6 +32,13 @@ pub struct VectorObservation {
     pub sigma: f64,
     /// Optional sensor name, for per-sensor settings and statistics.
     pub sensor: Option<String>,
+    /// `Some(up)`: a heading-only observation. Only the rotation about the reference-frame axis `up`
+    /// (unit) is observed: the angle, about `up`, between the horizontal part (perpendicular to `up`)
+    /// of `reference` and that of the measurement rotated into the reference frame. Its 1σ is
+    /// `sigma / ‖horizontal part of reference‖` rad. The filters never tilt the estimate with it (see
+    /// [`imu`]). `None`: the full vector observation above.
+    #[serde(default)]
+    pub heading_about: Option<Vector3<f64>>,
 }
 
 /// The vector observations taken at one instant.

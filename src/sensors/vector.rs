@@ -263,6 +263,7 @@ impl StarCamera {
                 reference: r,
                 sigma: self.sigma_rad,
                 sensor: Some(Self::SENSOR_NAME.to_string()),
+                heading_about: None,
             })
             .collect()
     }
@@ -326,6 +327,7 @@ impl SunSensor {
             reference: r,
             sigma: self.sigma_rad,
             sensor: Some(Self::SENSOR_NAME.to_string()),
+            heading_about: None,
         })
     }
 }
@@ -359,6 +361,7 @@ impl MagnetometerModel {
             reference: *field_ref_nt,
             sigma: self.sigma_nt,
             sensor: Some(Self::SENSOR_NAME.to_string()),
+            heading_about: None,
         }
     }
 }

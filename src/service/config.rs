@@ -7,6 +7,7 @@ use crate::attitude::Grp;
 use crate::filters::{
     Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, Kernel, QpfOptions, UsqueOptions,
 };
+use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
 use crate::sensors::GyroNoise;
 use crate::study::runner::chi_square_quantile;
 use crate::wire::{validate_vehicle_id, InputLimits};
@@ -135,6 +136,84 @@ impl Default for RawGate {
 #[serde(deny_unknown_fields)]
 struct RawSensor {
     gate_probability: Option<f64>,
+    /// "vector" (default), "gravity" or "field" (crate::sensors::imu).
+    kind: Option<String>,
+    sigma_norm_scale: Option<f64>,
+    norm_gate: Option<f64>,
+    lowpass_s: Option<f64>,
+    norm_limit: Option<f64>,
+    dip_limit_deg: Option<f64>,
+    holdoff_s: Option<f64>,
+    heading_only: Option<bool>,
+    vertical: Option<[f64; 3]>,
+}
+
+/// The model of one `service.sensors.NAME` entry (`None` for a plain vector sensor).
+fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorModel>, String> {
+    let at = |field: &str| format!("service.sensors.{name}.{field}");
+    let nonneg = |v: Option<f64>, field: &str, default: f64| -> Result<f64, String> {
+        let v = v.unwrap_or(default);
+        if v >= 0.0 && !v.is_nan() {
+            Ok(v)
+        } else {
+            Err(format!(
+                "{} must be a non-negative number, got {v}",
+                at(field)
+            ))
+        }
+    };
+    let kind = s.kind.as_deref().unwrap_or("vector");
+    let only = |ok: bool, field: &str, present: bool| -> Result<(), String> {
+        if present && !ok {
+            Err(format!(
+                "{} is not an option of a '{kind}' sensor",
+                at(field)
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    let (g, f) = (kind == "gravity", kind == "field");
+    only(g || f, "sigma_norm_scale", s.sigma_norm_scale.is_some())?;
+    only(g, "norm_gate", s.norm_gate.is_some())?;
+    only(g, "lowpass_s", s.lowpass_s.is_some())?;
+    only(f, "norm_limit", s.norm_limit.is_some())?;
+    only(f, "dip_limit_deg", s.dip_limit_deg.is_some())?;
+    only(f, "holdoff_s", s.holdoff_s.is_some())?;
+    only(f, "heading_only", s.heading_only.is_some())?;
+    only(f, "vertical", s.vertical.is_some())?;
+    match kind {
+        "vector" => Ok(None),
+        "gravity" => Ok(Some(SensorModel::Gravity(GravityModel {
+            sigma_norm_scale: nonneg(s.sigma_norm_scale, "sigma_norm_scale", 0.0)?,
+            norm_gate: nonneg(s.norm_gate, "norm_gate", f64::INFINITY)?,
+            lowpass_s: nonneg(s.lowpass_s, "lowpass_s", 0.0)?,
+        }))),
+        "field" => {
+            let v = s.vertical.unwrap_or([0.0, 0.0, 1.0]);
+            let vertical = nalgebra::Vector3::from(v);
+            let n = vertical.norm();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(format!(
+                    "{} must be a finite non-zero vector",
+                    at("vertical")
+                ));
+            }
+            Ok(Some(SensorModel::Field(FieldModel {
+                sigma_norm_scale: nonneg(s.sigma_norm_scale, "sigma_norm_scale", 0.0)?,
+                norm_limit: nonneg(s.norm_limit, "norm_limit", f64::INFINITY)?,
+                dip_limit_rad: nonneg(s.dip_limit_deg, "dip_limit_deg", f64::INFINITY)?
+                    .to_radians(),
+                holdoff_s: nonneg(s.holdoff_s, "holdoff_s", 0.0)?,
+                heading_only: s.heading_only.unwrap_or(false),
+                vertical: vertical / n,
+            })))
+        }
+        other => Err(format!(
+            "{} must be \"vector\", \"gravity\" or \"field\", got \"{other}\"",
+            at("kind")
+        )),
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -344,6 +423,8 @@ pub struct Policy {
     pub gate_threshold: Option<f64>,
     /// Per-sensor thresholds overriding `gate_threshold` (`None` = that sensor is not gated).
     pub sensor_gate: BTreeMap<String, Option<f64>>,
+    /// Per-sensor models (`gravity`, `field`); a sensor not listed is a plain vector observation.
+    pub sensor_models: BTreeMap<String, SensorModel>,
     /// Consecutive fully gated vector sets before the vehicle re-initialises (0 = never).
     pub gate_reinit_after: u32,
     /// Consecutive failed filter steps before the vehicle re-initialises from its last good estimate.
@@ -633,7 +714,11 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         }
     };
     let mut sensor_gate = BTreeMap::new();
+    let mut sensor_models = BTreeMap::new();
     for (name, s) in &raw.sensors {
+        if let Some(m) = sensor_model(name, s)? {
+            sensor_models.insert(name.clone(), m);
+        }
         if let Some(p) = s.gate_probability {
             sensor_gate.insert(
                 name.clone(),
@@ -654,6 +739,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         max_jump_s: t.max_jump_s,
         gate_threshold: threshold(raw.gate.probability, "service.gate.probability")?,
         sensor_gate,
+        sensor_models,
         gate_reinit_after: raw.gate.reinit_after,
         reinit_after_failures: h.reinit_after_failures.max(1),
         reinit_sigma_factor: h.reinit_sigma_factor,

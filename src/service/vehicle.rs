@@ -15,6 +15,7 @@ use crate::filters::{
     build_filter, is_spd, AttitudeFilter, Estimate, Fiducial, FilterError, FilterKind, FilterSpec,
     InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
+use crate::sensors::imu::{SensorState, Verdict};
 use crate::sensors::{GyroSample, Measurement, ObservationSet, VectorObservation};
 use crate::wire::{EstimateMsg, GateCountsMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg};
 use nalgebra::{Matrix3, Vector3};
@@ -143,6 +144,9 @@ pub struct VehicleState {
     reinits: BTreeMap<String, u64>,
     /// The last estimate published (the point a health re-initialisation restarts from).
     last_good: Option<Estimate>,
+    /// State of the sensors with a model (`service.sensors.NAME.kind`: gravity low-pass, field
+    /// hold-off), by sensor name.
+    sensor_state: BTreeMap<String, SensorState>,
 }
 
 fn filter_error(e: &FilterError) -> Rejection {
@@ -219,6 +223,7 @@ impl VehicleState {
             rollbacks: 0,
             reinits: BTreeMap::new(),
             last_good: None,
+            sensor_state: BTreeMap::new(),
         }
     }
 
@@ -476,7 +481,11 @@ impl VehicleState {
         }
         let result = match m {
             Measurement::Gyro(g) => self.process_gyro(g, policy, out),
-            Measurement::Vectors(set) => self.process_vectors(set, policy, out),
+            Measurement::Vectors(set) => {
+                let r = self.process_vectors(set, policy, out);
+                self.settle_sensors();
+                r
+            }
         };
         // The filter's time may have advanced even when the input was refused (a failed update
         // after its propagation): later samples are judged against it.
@@ -523,7 +532,7 @@ impl VehicleState {
         out: &mut Vec<Event>,
     ) -> Result<(), Rejection> {
         let Slot::Tracking(filter) = &mut self.slot else {
-            self.start_from_vectors(&set)?;
+            self.start_from_vectors(&set, policy)?;
             self.check_and_emit(policy, out);
             return Ok(());
         };
@@ -531,6 +540,13 @@ impl VehicleState {
             return Err(self.failure(&e, set.t_s, policy, out));
         }
         let prior = filter.estimate();
+        let set = self.apply_models(set, &prior, policy);
+        if set.observations.is_empty() {
+            // Every observation was left out by its sensor's model (counted there): the propagated
+            // estimate is published, and nothing speaks against the filter.
+            self.check_and_emit(policy, out);
+            return Ok(());
+        }
         let accepted = self.gate(&set, &prior, policy);
         if accepted.is_empty() {
             self.consecutive_gated += 1;
@@ -559,6 +575,73 @@ impl VehicleState {
         Ok(())
     }
 
+    /// Records the estimate after a vector set in the sensor models' state (the gravity low-pass
+    /// carries its vector from it).
+    fn settle_sensors(&mut self) {
+        if self.sensor_state.is_empty() {
+            return;
+        }
+        if let Slot::Tracking(f) = &self.slot {
+            let q = f.estimate().q;
+            for s in self.sensor_state.values_mut() {
+                s.settle(&q);
+            }
+        }
+    }
+
+    /// The gate counts of sensor `name` (`other` beyond the per-vehicle limit of names).
+    fn counts(&mut self, name: Option<&str>, policy: &Policy) -> &mut GateCountsMsg {
+        let name = name.unwrap_or(UNNAMED);
+        let key =
+            if self.gate.contains_key(name) || self.gate.len() < policy.max_sensors_per_vehicle {
+                name
+            } else {
+                OTHER
+            };
+        self.gate.entry(key.to_string()).or_default()
+    }
+
+    /// Applies the sensor models (`service.sensors.NAME.kind`, crate::sensors::imu) about `prior`:
+    /// observations of modelled sensors come out as unit vectors with their adapted σ (heading-only for
+    /// a `field` sensor with `heading_only`), or are left out (`norm_gated`, `disturbed`, counted).
+    fn apply_models(
+        &mut self,
+        mut set: ObservationSet,
+        prior: &Estimate,
+        policy: &Policy,
+    ) -> ObservationSet {
+        if policy.sensor_models.is_empty() {
+            return set;
+        }
+        let a = prior.q.attitude_matrix();
+        let observations = std::mem::take(&mut set.observations);
+        for o in observations {
+            let Some(model) = o
+                .sensor
+                .as_deref()
+                .and_then(|n| policy.sensor_models.get(n))
+            else {
+                set.observations.push(o);
+                continue;
+            };
+            let name = o.sensor.clone().unwrap_or_default();
+            // Sensor state is kept for configured names only, so it is bounded by the config.
+            let state = self.sensor_state.entry(name).or_default();
+            match model.apply(&o, set.t_s, &a, state) {
+                Verdict::Use(used) => set.observations.push(used),
+                Verdict::NormGated { .. } => {
+                    self.counts(o.sensor.as_deref(), policy).norm_gated += 1;
+                }
+                Verdict::Disturbed { .. } | Verdict::HeldOff => {
+                    self.counts(o.sensor.as_deref(), policy).disturbed += 1;
+                }
+                // No direction: left to the filter, which refuses what it cannot use.
+                Verdict::Unusable => set.observations.push(o),
+            }
+        }
+        set
+    }
+
     /// The observations of `set` that pass their sensor's χ² gate about `prior`; counts both kinds.
     fn gate(
         &mut self,
@@ -576,6 +659,8 @@ impl VehicleState {
         for o in &set.observations {
             let pass = match policy.gate_for(o.sensor.as_deref()) {
                 _ if !informative => true,
+                // A heading-only observation is not judged by the 3-dof vector gate.
+                _ if o.heading_about.is_some() => true,
                 None => true,
                 Some(threshold) => {
                     // ν = b − A r, S = [b̂×] P [b̂×]ᵀ + σ² I (the MEKF's measurement model).
@@ -593,15 +678,7 @@ impl VehicleState {
                     }
                 }
             };
-            let name = o.sensor.as_deref().unwrap_or(UNNAMED);
-            let key = if self.gate.contains_key(name)
-                || self.gate.len() < policy.max_sensors_per_vehicle
-            {
-                name
-            } else {
-                OTHER
-            };
-            let c = self.gate.entry(key.to_string()).or_default();
+            let c = self.counts(o.sensor.as_deref(), policy);
             if pass {
                 c.accepted += 1;
                 accepted.push(o.clone());
@@ -748,7 +825,7 @@ impl VehicleState {
         self.count_reinit("gate");
         self.consecutive_gated = 0;
         if q_method(&set.observations).is_ok() {
-            return self.start_from_vectors(set);
+            return self.start_from_vectors(set, policy);
         }
         if self.config.init == InitMode::Uniform {
             self.start_uniform(set.t_s)?;
@@ -808,8 +885,35 @@ impl VehicleState {
     }
 
     /// Starts from the q-method solution of `set` and its covariance (the set is not used twice).
-    fn start_from_vectors(&mut self, set: &ObservationSet) -> Result<(), Rejection> {
-        let solution = q_method(&set.observations).map_err(|e| {
+    fn start_from_vectors(
+        &mut self,
+        set: &ObservationSet,
+        policy: &Policy,
+    ) -> Result<(), Rejection> {
+        // Observations of modelled sensors as the unit vectors their models would give (no checks:
+        // there is no estimate to check against yet).
+        let observations: Vec<VectorObservation> = set
+            .observations
+            .iter()
+            .map(|o| {
+                let modelled = o
+                    .sensor
+                    .as_deref()
+                    .is_some_and(|n| policy.sensor_models.contains_key(n));
+                let (nb, nr) = (o.body.norm(), o.reference.norm());
+                if modelled && nb > 0.0 && nr > 0.0 && nb.is_finite() && nr.is_finite() {
+                    VectorObservation {
+                        body: o.body / nb,
+                        reference: o.reference / nr,
+                        sigma: o.sigma / nr,
+                        ..o.clone()
+                    }
+                } else {
+                    o.clone()
+                }
+            })
+            .collect();
+        let solution = q_method(&observations).map_err(|e| {
             Rejection::new(
                 RejectCode::NotInitialized,
                 format!(

@@ -75,6 +75,7 @@ impl SteadyState {
                 reference: *r,
                 sigma: 1e-4,
                 sensor: None,
+                heading_about: None,
             })
             .collect();
         (

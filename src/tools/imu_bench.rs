@@ -11,29 +11,29 @@
 //! after that sample, as the Hamilton quaternion of body → ENU (our [`Quaternion`]'s components,
 //! ALGORITHMS.md §1), `w ≥ 0`.
 //!
-//! The model (a spacecraft MEKF used as an IMU filter; no adaptive gating beyond the σ inflation below):
+//! The model: the service's IMU sensor models (`crate::sensors::imu`, `config/imu.json5`), applied in
+//! process exactly as a vehicle applies them to the observations of sensors named `acc` and `mag`.
 //! * Reference frame: East-North-Up aligned with magnetic north (BROAD's `opt_quat` frame).
 //! * Per sample `k`: one gyro measurement and one vector-observation set at `t_k`. The gyro rate of
 //!   sample `k` is taken as the rate over `(t_{k−1}, t_k]` ([`GyroInterval::Preceding`], VQF's
 //!   convention: its `update()` integrates `gyr` before correcting with `acc`/`mag`), so it is sent
 //!   stamped `t_{k−1}` and the filter propagates to `t_k` with it before the update. (Holding it over
 //!   `[t_k, t_{k+1})` instead, the project simulator's convention, lags one sample: 3.5 ms, up to 5° at
-//!   BROAD's 25 rad/s; on trial 07 it raised the MEKF's total RMSE from 3.8° to 4.7°.) The set holds
-//!   two unit vectors:
-//!   - gravity: body = normalised accelerometer (the specific force at rest points up), reference
-//!     `[0, 0, 1]`, `σ = 0.05 + 0.5·|‖a‖ − g₀|/g₀` rad, so that translational and centripetal
-//!     accelerations weigh less;
-//!   - magnetic field: body = normalised magnetometer, reference `[0, cos δ, −sin δ]` with the dip δ
-//!     taken from the rest period (the angle between the mean accelerometer and mean magnetometer
-//!     readings, minus 90°), `σ = 0.1 + 0.5·|‖m‖ − m₀|/m₀` rad.
+//!   BROAD's 25 rad/s.) The set holds two observations, sent raw as a client sends them:
+//!   - `acc`: body = the accelerometer (m/s²), reference `[0, 0, g₀]`, σ = 0.05·g₀ (0.05 rad). The
+//!     `gravity` model low-pass filters it in the reference frame (3 s) and gates `|‖a‖/g₀ − 1| > 5`
+//!     (σ not inflated by the norm: with the low-pass that made BROAD worse, docs/broad.md);
+//!   - `mag`: body = the magnetometer (µT), reference `m₀ [0, cos δ, −sin δ]` with the dip δ from the
+//!     rest period (the angle between the mean accelerometer and mean magnetometer readings, minus
+//!     90°), σ = 0.07·m₀. The `field` model suspends the sensor while the norm deviates by more than
+//!     10 % or the dip by more than 10° (and 0.5 s after), and corrects the heading only.
 //!
 //!   `g₀` and `m₀` are the mean norms over the rest period, the first second of the trial (BROAD
 //!   trials open with ≈ 40 s of rest).
-//! * Gyro noise of a MEMS IMU: `σ_v = 1e-3 rad/s^½` (0.057 °/√s; a few times a datasheet's noise
+//! * Gyro noise of a MEMS IMU: `σ_v = 1.5e-3 rad/s^½` (0.086 °/√s; several times a datasheet's noise
 //!   density, to cover scale-factor and misalignment errors in fast rotations) and
-//!   `σ_u = 1e-5 rad/s^{3/2}`, chosen a priori, not fitted to BROAD. With the σ above this gives a
-//!   gravity time constant of `σ_g √Δt / σ_v ≈ 3 s` and a magnetometer one of ≈ 6 s at 286 Hz (VQF's
-//!   defaults are 3 s and 9 s).
+//!   `σ_u = 3e-5 rad/s^{3/2}`. The sensor models' constants were chosen on the four BROAD trials in
+//!   `../shared/data/broad` (docs/broad.md says how).
 //! * Initial state: Davenport's q-method of the first sample's two observations, 0.1 rad per axis;
 //!   bias 0 ± 0.01 rad/s (0.57 °/s) per axis.
 //!
@@ -41,9 +41,10 @@
 //! was (the [`crate::filters::FilterCore`] contract); it is counted in `rejected` and the run goes on.
 
 use crate::attitude::{q_method, Quaternion, WahbaError};
-use crate::filters::{build_filter, FilterConfig, FilterError, InitialState};
+use crate::filters::{build_filter, FilterConfig, FilterError, FilterSpec, InitialState};
+use crate::sensors::imu::{FieldModel, GravityModel, LowpassState, Verdict};
 use crate::sensors::{GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::time::Instant;
 use thiserror::Error;
@@ -52,7 +53,9 @@ use thiserror::Error;
 pub const VALUES_PER_SAMPLE: usize = 10;
 
 /// The filter's assumptions (see the module documentation); [`MekfTuning::default`] is the benchmark's.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Every field can be overridden from JSON (`imu-bench --tuning '{"sigma_v": 2e-3}'`) for experiments.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MekfTuning {
     /// Angle random walk assumed for the MEMS gyro, rad/s^½.
     pub sigma_v: f64,
@@ -62,18 +65,38 @@ pub struct MekfTuning {
     pub sigma_gravity_rad: f64,
     /// Base σ of the magnetic field direction, rad.
     pub sigma_mag_rad: f64,
-    /// Growth of either σ per unit relative deviation of the measured norm from the rest norm, rad.
-    pub sigma_norm_gain_rad: f64,
+    /// The accelerometer's model (adaptive σ, norm gate).
+    pub gravity: GravityModel,
+    /// The magnetometer's model (disturbance detection, hold-off, heading-only).
+    pub field: FieldModel,
+    /// Use the magnetometer at all.
+    pub use_mag: bool,
     /// Initial attitude 1σ per axis, rad.
     pub initial_attitude_sigma_rad: f64,
     /// Initial gyro-bias 1σ per axis, rad/s.
     pub initial_bias_sigma_rad_s: f64,
     /// Which sampling interval a gyro sample's rate covers.
     pub gyro_interval: GyroInterval,
+    /// The filter (`mekf`, `qpf:average`, ...; the benchmark's is the MEKF) and a QPF's particles.
+    #[serde(deserialize_with = "filter_spec", serialize_with = "filter_spec_out")]
+    pub filter: FilterSpec,
+    pub particles: usize,
+    /// The QPF's tuning.
+    pub qpf: crate::filters::QpfOptions,
+}
+
+fn filter_spec<'de, D: serde::Deserializer<'de>>(d: D) -> Result<FilterSpec, D::Error> {
+    let s = <String as serde::Deserialize>::deserialize(d)?;
+    s.parse().map_err(serde::de::Error::custom)
+}
+
+fn filter_spec_out<S: serde::Serializer>(spec: &FilterSpec, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&spec.to_string())
 }
 
 /// Which sampling interval the rate of gyro sample `k` (taken at `t_k`) covers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum GyroInterval {
     /// `(t_{k−1}, t_k]`: the sample is sent stamped `t_{k−1}`, so the filter propagates to `t_k` with it
     /// and then uses the accelerometer and magnetometer of the same sample (VQF's convention: its
@@ -84,16 +107,36 @@ pub enum GyroInterval {
 }
 
 impl Default for MekfTuning {
+    /// The values of `config/imu.json5` (the service's IMU preset).
     fn default() -> Self {
         MekfTuning {
-            sigma_v: 1e-3,
-            sigma_u: 1e-5,
+            sigma_v: 1.5e-3,
+            sigma_u: 3e-5,
             sigma_gravity_rad: 0.05,
-            sigma_mag_rad: 0.1,
-            sigma_norm_gain_rad: 0.5,
+            sigma_mag_rad: 0.07,
+            gravity: GravityModel {
+                sigma_norm_scale: 0.0,
+                norm_gate: 5.0,
+                lowpass_s: 3.0,
+            },
+            field: FieldModel {
+                sigma_norm_scale: 0.0,
+                norm_limit: 0.1,
+                dip_limit_rad: 10f64.to_radians(),
+                holdoff_s: 0.5,
+                heading_only: true,
+                vertical: UP,
+            },
+            use_mag: true,
             initial_attitude_sigma_rad: 0.1,
             initial_bias_sigma_rad_s: 0.01,
             gyro_interval: GyroInterval::Preceding,
+            filter: FilterSpec {
+                kind: crate::filters::FilterKind::Mekf,
+                fiducial: None,
+            },
+            particles: 500,
+            qpf: crate::filters::QpfOptions::default(),
         }
     }
 }
@@ -112,6 +155,8 @@ pub enum ImuBenchError {
     Init(#[from] WahbaError),
     #[error("filter: {0}")]
     Filter(#[from] FilterError),
+    #[error("tuning: {0}")]
+    Tuning(String),
 }
 
 /// One IMU sample.
@@ -140,6 +185,10 @@ pub struct ImuBenchResult {
     pub samples_per_s: f64,
     /// Measurements the filter refused (each leaves the state unchanged).
     pub rejected: usize,
+    /// Accelerometer observations gated by their norm, and magnetometer observations judged disturbed
+    /// or held off after a disturbance.
+    pub gravity_gated: usize,
+    pub field_suspended: usize,
     /// The estimate after each sample (body → ENU, Hamilton components `x, y, z, w`).
     pub estimates: Vec<Quaternion>,
 }
@@ -152,6 +201,8 @@ impl ImuBenchResult {
             "seconds": self.seconds,
             "samples_per_s": self.samples_per_s,
             "rejected": self.rejected,
+            "gravity_gated": self.gravity_gated,
+            "field_suspended": self.field_suspended,
             "filter": "mekf",
         })
         .to_string()
@@ -293,34 +344,88 @@ pub fn rest_reference(trial: &ImuTrial) -> Result<RestReference, ImuBenchError> 
 
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
 
-/// The two direction observations of one sample; an observation whose reading has no direction (zero
-/// or non-finite) is left out.
+/// The two raw observations of one sample as a client sends them (see `clients/python/broad_replay.py`):
+/// the accelerometer against `[0, 0, g₀]` with `σ = σ_g g₀`, the magnetometer against `m₀ [0, cos δ, −sin δ]`
+/// with `σ = σ_m m₀` (so that the direction σ at the reference norm is `σ_g`, `σ_m` rad).
+fn raw_observations(
+    s: &ImuSample,
+    rest: &RestReference,
+    tuning: &MekfTuning,
+) -> [VectorObservation; 2] {
+    [
+        VectorObservation {
+            body: s.acc_m_s2,
+            reference: UP * rest.g0,
+            sigma: tuning.sigma_gravity_rad * rest.g0,
+            sensor: Some("acc".into()),
+            heading_about: None,
+        },
+        VectorObservation {
+            body: s.mag_ut,
+            reference: rest.mag_reference * rest.m0,
+            sigma: tuning.sigma_mag_rad * rest.m0,
+            sensor: Some("mag".into()),
+            heading_about: None,
+        },
+    ]
+}
+
+/// The field sensor's suspension state (the service's per-sensor hold-off).
+#[derive(Default)]
+struct FieldState {
+    last_disturbed_t_s: Option<f64>,
+    lowpass: LowpassState,
+}
+
+impl FieldState {
+    /// The posterior for the gravity low-pass (`SensorState::settle`).
+    fn lowpass_settle(&mut self, posterior: &Quaternion) {
+        if self.lowpass.t_s.is_some() {
+            self.lowpass.posterior = Some(*posterior);
+        }
+    }
+}
+
+/// The observations of one sample after the sensor models (the service's `gravity` and `field`
+/// sensor kinds); counts gated and suspended ones.
 fn observations(
     s: &ImuSample,
     rest: &RestReference,
     tuning: &MekfTuning,
+    a_est: &Matrix3<f64>,
+    field_state: &mut FieldState,
+    result: &mut ImuBenchResult,
     out: &mut Vec<VectorObservation>,
 ) {
     out.clear();
-    let an = s.acc_m_s2.norm();
-    if an > 0.0 && an.is_finite() {
-        out.push(VectorObservation {
-            body: s.acc_m_s2 / an,
-            reference: UP,
-            sigma: tuning.sigma_gravity_rad
-                + tuning.sigma_norm_gain_rad * (an - rest.g0).abs() / rest.g0,
-            sensor: None,
-        });
+    let [acc, mag] = raw_observations(s, rest, tuning);
+    let direction = tuning
+        .gravity
+        .lowpass(&mut field_state.lowpass, s.t_s, &acc.body, a_est);
+    match tuning.gravity.apply(&acc, &direction) {
+        Verdict::Use(o) => out.push(o),
+        Verdict::NormGated { .. } => result.gravity_gated += 1,
+        _ => {}
     }
-    let mn = s.mag_ut.norm();
-    if mn > 0.0 && mn.is_finite() {
-        out.push(VectorObservation {
-            body: s.mag_ut / mn,
-            reference: rest.mag_reference,
-            sigma: tuning.sigma_mag_rad
-                + tuning.sigma_norm_gain_rad * (mn - rest.m0).abs() / rest.m0,
-            sensor: None,
-        });
+    if !tuning.use_mag {
+        return;
+    }
+    match tuning.field.apply(&mag, a_est) {
+        Verdict::Use(o) => {
+            let held = field_state
+                .last_disturbed_t_s
+                .is_some_and(|t| s.t_s - t < tuning.field.holdoff_s);
+            if held {
+                result.field_suspended += 1;
+            } else {
+                out.push(o);
+            }
+        }
+        Verdict::Disturbed { .. } => {
+            field_state.last_disturbed_t_s = Some(s.t_s);
+            result.field_suspended += 1;
+        }
+        _ => {}
     }
 }
 
@@ -334,10 +439,17 @@ pub fn mekf_setup(
         .samples
         .first()
         .ok_or_else(|| ImuBenchError::Format("no samples".into()))?;
-    let mut obs = Vec::with_capacity(2);
-    observations(first, rest, tuning, &mut obs);
+    let obs: Vec<VectorObservation> = raw_observations(first, rest, tuning)
+        .into_iter()
+        .map(|o| VectorObservation {
+            body: o.body.normalize(),
+            reference: o.reference.normalize(),
+            sigma: o.sigma / o.reference.norm(),
+            ..o
+        })
+        .collect();
     let q0 = q_method(&obs)?.q;
-    let spec = "mekf".parse().expect("'mekf' is a filter spec");
+    let spec = tuning.filter;
     let gyro = GyroNoise {
         sigma_v: tuning.sigma_v,
         sigma_u: tuning.sigma_u,
@@ -351,7 +463,10 @@ pub fn mekf_setup(
         uniform_attitude: false,
         covariance: None,
     };
-    Ok((FilterConfig::new(spec, gyro), initial))
+    let mut config = FilterConfig::new(spec, gyro);
+    config.particles = tuning.particles;
+    config.qpf = tuning.qpf;
+    Ok((config, initial))
 }
 
 /// Runs the MEKF with the benchmark's tuning over every sample of `trial`, timed (see
@@ -369,8 +484,16 @@ pub fn run_mekf_with(
     let rest = rest_reference(trial)?;
     let (config, initial) = mekf_setup(trial, &rest, tuning)?;
     let mut filter = build_filter(&config, &initial, 0)?;
-    let mut estimates = Vec::with_capacity(trial.samples.len());
-    let mut rejected = 0usize;
+    let mut result = ImuBenchResult {
+        samples: trial.samples.len(),
+        seconds: 0.0,
+        samples_per_s: 0.0,
+        rejected: 0,
+        gravity_gated: 0,
+        field_suspended: 0,
+        estimates: Vec::with_capacity(trial.samples.len()),
+    };
+    let mut field_state = FieldState::default();
     // One observation set reused for every sample (no allocation per sample).
     let mut set = ObservationSet {
         t_s: initial.t_s.unwrap_or(0.0),
@@ -387,33 +510,41 @@ pub fn run_mekf_with(
         });
         previous_t_s = s.t_s;
         if filter.process(&gyro).is_err() {
-            rejected += 1;
+            result.rejected += 1;
         }
+        if filter.advance_to(s.t_s).is_err() {
+            result.rejected += 1;
+        }
+        let a_est = filter.estimate().q.attitude_matrix();
         set.t_s = s.t_s;
-        observations(s, &rest, tuning, &mut set.observations);
+        observations(
+            s,
+            &rest,
+            tuning,
+            &a_est,
+            &mut field_state,
+            &mut result,
+            &mut set.observations,
+        );
         let vectors = Measurement::Vectors(set);
         if filter.process(&vectors).is_err() {
-            rejected += 1;
+            result.rejected += 1;
         }
         let Measurement::Vectors(back) = vectors else {
             unreachable!("built as Vectors above")
         };
         set = back;
-        estimates.push(filter.estimate().q);
+        let q = filter.estimate().q;
+        field_state.lowpass_settle(&q);
+        result.estimates.push(q);
     }
-    let seconds = start.elapsed().as_secs_f64();
-    let samples = trial.samples.len();
-    Ok(ImuBenchResult {
-        samples,
-        seconds,
-        samples_per_s: if seconds > 0.0 {
-            samples as f64 / seconds
-        } else {
-            f64::INFINITY
-        },
-        rejected,
-        estimates,
-    })
+    result.seconds = start.elapsed().as_secs_f64();
+    result.samples_per_s = if result.seconds > 0.0 {
+        result.samples as f64 / result.seconds
+    } else {
+        f64::INFINITY
+    };
+    Ok(result)
 }
 
 /// Reads a samples file and runs the MEKF over it (file reading is not timed).
@@ -421,11 +552,22 @@ pub fn run_mekf_on_samples(path: &Path) -> Result<ImuBenchResult, ImuBenchError>
     run_mekf(&read_samples(path)?)
 }
 
-/// `attitude-service imu-bench --samples FILE [--estimates-out FILE]`: runs the MEKF over the samples
-/// file, writes the estimates when asked, and returns the JSON line to print
-/// (`{"samples":..,"seconds":..,"samples_per_s":..,"rejected":..,"filter":"mekf"}`).
-pub fn main_entry(samples: &Path, estimates_out: Option<&Path>) -> Result<String, ImuBenchError> {
-    let result = run_mekf_on_samples(samples)?;
+/// `attitude-service imu-bench --samples FILE [--estimates-out FILE] [--tuning JSON]`: runs the MEKF
+/// over the samples file (with the tuning's fields overridden by the JSON object, if given), writes the
+/// estimates when asked, and returns the JSON line to print
+/// (`{"samples":..,"seconds":..,"samples_per_s":..,"rejected":..,"filter":"mekf",..}`).
+pub fn main_entry(
+    samples: &Path,
+    estimates_out: Option<&Path>,
+    tuning: Option<&str>,
+) -> Result<String, ImuBenchError> {
+    let tuning: MekfTuning = match tuning {
+        Some(json) => {
+            serde_json::from_str(json).map_err(|e| ImuBenchError::Tuning(e.to_string()))?
+        }
+        None => MekfTuning::default(),
+    };
+    let result = run_mekf_with(&read_samples(samples)?, &tuning)?;
     if let Some(out) = estimates_out {
         write_estimates(out, &result.estimates)?;
     }
@@ -504,7 +646,7 @@ mod tests {
         let estimates_path = dir.join("estimates.bin");
         std::fs::write(&samples_path, samples_to_bytes(&trial)).unwrap();
 
-        let line = main_entry(&samples_path, Some(&estimates_path)).unwrap();
+        let line = main_entry(&samples_path, Some(&estimates_path), None).unwrap();
         let json: serde_json::Value = serde_json::from_str(&line).unwrap();
         assert_eq!(json["samples"], 500);
         assert_eq!(json["rejected"], 0);

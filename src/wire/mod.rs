@@ -310,6 +310,7 @@ impl ObservationMsg {
             reference,
             sigma: self.sigma,
             sensor: self.sensor.clone(),
+            heading_about: None,
         })
     }
 }
@@ -593,6 +594,14 @@ pub struct DiagnosticsMsg {
 pub struct GateCountsMsg {
     pub accepted: u64,
     pub gated: u64,
+    /// Observations of a `gravity` sensor left out because their norm deviated beyond `norm_gate`.
+    /// (Always written: a checkpoint holds these counts in bincode, which has no optional fields.)
+    #[serde(default)]
+    pub norm_gated: u64,
+    /// Observations of a `field` sensor left out as disturbed (norm or dip) or in the hold-off after a
+    /// disturbance.
+    #[serde(default)]
+    pub disturbed: u64,
 }
 
 /// `P/V/estimate` and the `P/V/state` reply.
