@@ -43,8 +43,8 @@ pub struct GravityModel {
     pub sigma_norm_scale: f64,
     /// Largest `d` used; beyond it the observation is gated (not used).
     pub norm_gate: f64,
-    /// Time constant of a low-pass filter applied to the measurement in the reference frame, s
-    /// (0: none). See [`GravityModel::lowpass`].
+    /// Time constant of a low-pass filter applied to the measurement in a frame that turns with the
+    /// gyro only, s (0: none). See [`GravityModel::lowpass`].
     #[serde(default)]
     pub lowpass_s: f64,
 }
