@@ -50,6 +50,9 @@ import h5py
 import numpy as np
 from vqf import VQF, offlineVQF
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients" / "python"))
+from broad_replay import broad_rmse as broad_metric, invquat, quatmult  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 ATTRIBUTION = (
     "Data: BROAD (Laidig, Caruso, Cereatti, Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
@@ -59,28 +62,6 @@ ATTRIBUTION = (
 
 # ----------------------------------------------------------------------------------------------------------
 # Quaternions, Hamilton [w, x, y, z]
-
-
-def quatmult(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
-    """Row-wise Hamilton product of (N, 4) arrays (either may be a single (4,) quaternion)."""
-    q1 = np.atleast_2d(q1)
-    q2 = np.atleast_2d(q2)
-    w1, x1, y1, z1 = q1.T
-    w2, x2, y2, z2 = q2.T
-    return np.column_stack(
-        [
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ]
-    )
-
-
-def invquat(q: np.ndarray) -> np.ndarray:
-    out = np.array(q, dtype=float, copy=True)
-    out[..., 1:] *= -1.0
-    return out
 
 
 def normalize(q: np.ndarray) -> np.ndarray:
@@ -109,17 +90,10 @@ def rotate_heading(q_est: np.ndarray, angle_rad: float) -> np.ndarray:
 
 
 def broad_rmse(q_est: np.ndarray, q_opt: np.ndarray, movement: np.ndarray) -> dict:
-    """Total/heading/inclination RMSE in degrees over `movement` (the BROAD metric)."""
-    e = error_quat_earth(q_est, q_opt)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        total = 2.0 * np.arccos(np.clip(np.abs(e[:, 0]), 0.0, 1.0))
-        heading = 2.0 * np.arctan(np.abs(e[:, 3] / e[:, 0]))
-        incl = 2.0 * np.arccos(np.clip(np.sqrt(e[:, 0] ** 2 + e[:, 3] ** 2), 0.0, 1.0))
-
-    def rmse(x: np.ndarray) -> float:
-        return float(np.rad2deg(np.sqrt(np.nanmean(x[movement] ** 2))))
-
-    return {"total": rmse(total), "heading": rmse(heading), "inclination": rmse(incl)}
+    """Total/heading/inclination RMSE in degrees over `movement` (the BROAD metric, one implementation:
+    clients/python/broad_replay.py)."""
+    m = broad_metric(q_est, q_opt, movement)
+    return {"total": m["total_rmse_deg"], "heading": m["heading_rmse_deg"], "inclination": m["inclination_rmse_deg"]}
 
 
 def score(q_est: np.ndarray, trial: dict) -> dict:

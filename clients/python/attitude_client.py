@@ -254,20 +254,28 @@ class AttitudeClient:
             **kwargs,
         )
 
-    def _call(self, key: str, payload: bytes | str | None = None, timeout: float | None = None) -> Any:
-        """A get that expects one reply: retried (while nothing answers) until ``timeout``."""
+    def _call_all(self, key: str, payload: bytes | str | None = None, timeout: float | None = None) -> list:
+        """The replies of one get (every instance of a fleet answers the ``P/@/…`` keys), retried while
+        nothing answers, until ``timeout``; an error reply raises."""
         timeout = self.timeout if timeout is None else float(timeout)
         deadline = time.monotonic() + timeout
         while True:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise TimeoutError(f"nobody answered {key} within {timeout:g} s (is the service running?)")
+            out = []
             for reply in self._get(key, payload, max(remaining, 0.05)):
-                if reply.ok is not None:
-                    return json.loads(reply.ok.payload.to_bytes())
-                raise _error_from(reply.err.payload.to_bytes(), key)
+                if reply.ok is None:
+                    raise _error_from(reply.err.payload.to_bytes(), key)
+                out.append(json.loads(reply.ok.payload.to_bytes()))
+            if out:
+                return out
             # No queryable matched (yet): declarations may still be on their way.
             time.sleep(min(0.02, max(deadline - time.monotonic(), 0)))
+
+    def _call(self, key: str, payload: bytes | str | None = None, timeout: float | None = None) -> Any:
+        """A get that expects one reply: retried (while nothing answers) until ``timeout``."""
+        return self._call_all(key, payload, timeout)[0]
 
     def _vehicle_query(self, vehicle: str, kind: str, timeout: float | None) -> dict:
         if not vehicle or any(c in vehicle for c in "/*$?#"):
@@ -333,34 +341,17 @@ class AttitudeClient:
             req[name] = value
         return self._call(self.key(vehicle, "reset"), payload=_dumps(req), timeout=timeout)
 
-    def _call_all(self, key: str, timeout: float | None = None) -> list:
-        """A get that every instance of a fleet answers: the replies of one get (retried while nobody answers)."""
-        timeout = self.timeout if timeout is None else float(timeout)
-        deadline = time.monotonic() + timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError(f"nobody answered {key} within {timeout:g} s (is the service running?)")
-            out = []
-            for reply in self._get(key, None, max(remaining, 0.05)):
-                if reply.ok is None:
-                    raise _error_from(reply.err.payload.to_bytes(), key)
-                out.append(json.loads(reply.ok.payload.to_bytes()))
-            if out:
-                return out
-            time.sleep(min(0.02, max(deadline - time.monotonic(), 0)))
-
     def vehicles(self, timeout: float | None = None) -> list[dict]:
         """``P/@/vehicles``: one row per known vehicle (``vehicle``, ``state``, ``filter``, ``fiducial``, ``t``,
         ``received``, ``processed``, ``rejected``, ``estimates``). In a fleet every instance answers with the
         vehicles it owns: the rows of all of them, sorted by vehicle."""
-        rows = [row for reply in self._call_all(f"{self.prefix}/@/vehicles", timeout) for row in reply]
+        rows = [row for reply in self._call_all(f"{self.prefix}/@/vehicles", timeout=timeout) for row in reply]
         return sorted(rows, key=lambda r: r["vehicle"])
 
     def instances(self, timeout: float | None = None) -> dict[str, dict]:
         """``P/@/instance/*/health``: ``{instance name: its health}``, one entry per running instance (its
         ``fleet`` object says which vehicles pattern it serves, its members and how many vehicles it owns)."""
-        return {h["fleet"]["instance"]: h for h in self._call_all(f"{self.prefix}/@/instance/*/health", timeout)}
+        return {h["fleet"]["instance"]: h for h in self._call_all(f"{self.prefix}/@/instance/*/health", timeout=timeout)}
 
     def health(self, timeout: float | None = None) -> dict:
         """``P/@/health``: service counters (``received``, ``processed``, ``estimates_published``,
