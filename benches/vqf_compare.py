@@ -46,12 +46,12 @@ import time
 from importlib import metadata
 from pathlib import Path
 
-import h5py
 import numpy as np
 from vqf import VQF, offlineVQF
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients" / "python"))
 from broad_replay import broad_rmse as broad_metric, invquat, quatmult  # noqa: E402
+from broad_replay import load_trial as read_trial  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 ATTRIBUTION = (
@@ -111,23 +111,14 @@ def score(q_est: np.ndarray, trial: dict) -> dict:
 
 
 def load_trial(path: Path) -> dict:
-    with h5py.File(path, "r") as f:
-        trial = {
-            "name": path.stem,
-            "gyr": np.ascontiguousarray(f["imu_gyr"][:], dtype=np.float64),
-            "acc": np.ascontiguousarray(f["imu_acc"][:], dtype=np.float64),
-            "mag": np.ascontiguousarray(f["imu_mag"][:], dtype=np.float64),
-            "opt_quat": np.asarray(f["opt_quat"][:], dtype=np.float64),
-            "movement": np.asarray(f["movement"][:], dtype=bool),
-            "rate_hz": float(f.attrs["sampling_rate"]),
-        }
+    """The trial as broad_replay reads it (one reader), which must have its truth and movement phases."""
+    trial = read_trial(path, None)
+    if trial["opt_quat"] is None or trial["movement"] is None:
+        raise SystemExit(f"{path}: opt_quat and movement are needed to score")
     n = len(trial["gyr"])
     for key in ("acc", "mag", "opt_quat", "movement"):
         if len(trial[key]) != n:
             raise SystemExit(f"{path}: {key} has {len(trial[key])} rows, imu_gyr {n}")
-    for key in ("gyr", "acc", "mag"):
-        if not np.isfinite(trial[key]).all():
-            raise SystemExit(f"{path}: imu_{key} has non-finite values")
     if not trial["movement"].any():
         raise SystemExit(f"{path}: no movement samples to score")
     first_move = int(np.argmax(trial["movement"]))

@@ -51,6 +51,26 @@ pub struct LoadReport {
     pub send_lag_max_ms: f64,
 }
 
+/// Counts the rejections published for `index`'s vehicles into `counter` while the subscriber lives.
+pub async fn count_rejections(
+    session: &zenoh::Session,
+    keys: &Keys,
+    index: HashMap<String, usize>,
+    counter: Arc<AtomicU64>,
+) -> zenoh::Result<zenoh::pubsub::Subscriber<()>> {
+    let k = keys.clone();
+    session
+        .declare_subscriber(keys.all(Leaf::Rejected))
+        .callback(move |s: zenoh::sample::Sample| {
+            if k.split(s.key_expr().as_str())
+                .is_some_and(|(v, _)| index.contains_key(v))
+            {
+                counter.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .await
+}
+
 /// Sent-time of each vector message still waiting for its estimate, per vehicle, by `time_key(t)`.
 pub type Pending = Vec<Mutex<HashMap<i64, Instant>>>;
 
@@ -212,17 +232,7 @@ pub async fn run(
             }
         })
         .await?;
-    let (r, k, idx) = (rejected.clone(), keys.clone(), index.clone());
-    let _rejections = session
-        .declare_subscriber(keys.all(Leaf::Rejected))
-        .callback(move |s: zenoh::sample::Sample| {
-            if k.split(s.key_expr().as_str())
-                .is_some_and(|(v, _)| idx.contains_key(v))
-            {
-                r.fetch_add(1, Ordering::Relaxed);
-            }
-        })
-        .await?;
+    let _rejections = count_rejections(session, keys, index.clone(), rejected.clone()).await?;
     // Prove the path before the clock starts: a probe vehicle (`<prefix>0`) until its first estimate
     // comes back, so that declarations still propagating are not counted as losses.
     probe(session, keys, &options.vehicle_prefix).await?;

@@ -11,7 +11,7 @@
 
 use crate::filters::FilterSpec;
 use crate::service::keys::{Keys, Leaf};
-use crate::tools::loadgen::{drain, latency_us, probe, star_set, time_key};
+use crate::tools::loadgen::{count_rejections, drain, latency_us, probe, star_set, time_key};
 use crate::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -435,16 +435,7 @@ async fn load(
         })
         .await
         .map_err(zerr)?;
-    let (r, k, idx) = (rejected.clone(), keys.clone(), index.clone());
-    let _rejections = session
-        .declare_subscriber(keys.all(Leaf::Rejected))
-        .callback(move |s: zenoh::sample::Sample| {
-            if k.split(s.key_expr().as_str())
-                .is_some_and(|(v, _)| idx.contains_key(v))
-            {
-                r.fetch_add(1, Ordering::Relaxed);
-            }
-        })
+    let _rejections = count_rejections(session, &keys, index.clone(), rejected.clone())
         .await
         .map_err(zerr)?;
     probe(session, &keys, VEHICLE_PREFIX)
