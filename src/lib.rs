@@ -12,6 +12,7 @@
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also refuses NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod ahrs;
 pub mod attitude;
 pub mod bounds;
 pub mod filters;

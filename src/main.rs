@@ -56,6 +56,10 @@ enum Command {
     /// Our MEKF over a recorded IMU trial (gyro, accelerometer, magnetometer) in one process without
     /// the network, timed: the Rust half of `bench --vqf`.
     ImuBench(ImuBenchArgs),
+    /// Recorded IMU trials (files of scripts/broad-export.py) through the service's vehicle pipeline in
+    /// one process, scored against their truth: BROAD's RMSEs and how often the error lies inside the
+    /// published covariance.
+    ImuStudy(ImuStudyArgs),
     /// Load against a running service: K vehicles publishing gyro and vectors at a rate; reports
     /// throughput, put→estimate latency percentiles and losses. --echo measures a bare zenoh round
     /// trip through a trivial echo the same way (the baseline).
@@ -255,6 +259,31 @@ struct ImuBenchArgs {
 }
 
 #[derive(Args)]
+struct ImuStudyArgs {
+    /// Trial files, or directories of them (*.trial).
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    /// The service configuration the vehicles run.
+    #[arg(long, default_value = "config/imu.json5")]
+    config: PathBuf,
+    /// Replace a configuration value: PATH=JSON, e.g. service.imu.acc.motion_gain=1.5 (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// The filter instead of the configuration's: mekf, usque[:…], qpf[:average|:propagated].
+    #[arg(long)]
+    filter: Option<FilterSpec>,
+    /// Particles of a qpf.
+    #[arg(long)]
+    particles: Option<usize>,
+    /// Print one JSON array instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Write each trial's estimates, truth and pipeline state per sample to DIR/TRIAL.csv.
+    #[arg(long)]
+    series: Option<PathBuf>,
+}
+
+#[derive(Args)]
 struct LoadgenArgs {
     /// Vehicles.
     #[arg(long, default_value_t = 10)]
@@ -305,6 +334,26 @@ struct SoakArgs {
     json: bool,
 }
 
+fn imu_study_cmd(args: ImuStudyArgs) -> Result<()> {
+    use attitude_service::tools::imu_study;
+    let service = imu_study::load_config(&args.config, &args.sets)?;
+    let setup = imu_study::Setup::new(&service, args.filter, args.particles);
+    let trials = imu_study::trial_paths(&args.trials)?
+        .iter()
+        .map(|p| imu_study::read_trial(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(dir) = &args.series {
+        std::fs::create_dir_all(dir)?;
+    }
+    let results = imu_study::study(&trials, &setup, args.series.as_deref());
+    if args.json {
+        println!("{}", serde_json::to_string(&results)?);
+    } else {
+        print!("{}", imu_study::table(&results));
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
@@ -323,6 +372,7 @@ fn main() -> Result<()> {
             println!("{line}");
             Ok(())
         }
+        Command::ImuStudy(args) => imu_study_cmd(args),
         Command::Loadgen(args) => runtime()?.block_on(loadgen_cmd(args)),
         Command::Soak(args) => runtime()?.block_on(soak_cmd(args)),
         Command::Scenarios => {

@@ -5,7 +5,7 @@ use attitude_service::attitude::{
 };
 use attitude_service::bounds::{steady_state, Pcrb};
 use attitude_service::filters::mekf::{process_noise, transition_matrix};
-use attitude_service::sensors::{GyroNoise, VectorObservation};
+use attitude_service::sensors::{Aspect, GyroNoise, VectorObservation};
 use nalgebra::{Matrix3, Vector3};
 
 const ARCSEC: f64 = std::f64::consts::PI / 180.0 / 3600.0;
@@ -363,7 +363,7 @@ fn tv_e_q_method_recovers_the_truth() {
                 reference: *r,
                 sigma: 1e-3,
                 sensor: None,
-                heading_about: None,
+                aspect: Aspect::Full,
             }
         })
         .collect();

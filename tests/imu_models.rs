@@ -7,7 +7,7 @@ use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
 use attitude_service::sensors::imu::{FieldModel, GravityModel, SensorModel, SensorState, Verdict};
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config;
 use attitude_service::service::vehicle::{Event, VehicleState};
@@ -27,7 +27,7 @@ fn heading_obs(body: Vector3<f64>) -> VectorObservation {
         reference: field_ref().normalize(),
         sigma: 0.05,
         sensor: Some("mag".into()),
-        heading_about: Some(UP),
+        aspect: Aspect::Heading(UP),
     }
 }
 
@@ -105,7 +105,7 @@ fn a_heading_only_update_never_tilts_the_mekf() {
         reference: UP,
         sigma: 0.02,
         sensor: Some("acc".into()),
-        heading_about: None,
+        aspect: Aspect::Full,
     };
     for k in 1..=200 {
         g.process(&vectors(
@@ -130,7 +130,7 @@ fn the_particle_filter_corrects_the_heading_from_a_heading_only_field() {
         reference: UP,
         sigma: 0.02,
         sensor: Some("acc".into()),
-        heading_about: None,
+        aspect: Aspect::Full,
     };
     for k in 1..=100 {
         f.process(&vectors(
@@ -160,7 +160,7 @@ fn raw(body: Vector3<f64>, reference: Vector3<f64>, sensor: &str) -> VectorObser
         reference,
         sigma: 0.07 * reference.norm(),
         sensor: Some(sensor.into()),
-        heading_about: None,
+        aspect: Aspect::Full,
     }
 }
 
@@ -172,7 +172,7 @@ fn a_disturbed_magnetometer_is_detected_and_held_off() {
     let mut state = SensorState::default();
     let clean = raw(a * field_ref(), field_ref(), "mag");
     assert!(
-        matches!(m.apply(&clean, 0.0, &a, &mut state), Verdict::Use(o) if o.heading_about == Some(UP))
+        matches!(m.apply(&clean, 0.0, &a, &mut state), Verdict::Use(o) if o.aspect == Aspect::Heading(UP))
     );
     // A magnet nearby: 30 % stronger.
     let strong = raw(a * field_ref() * 1.3, field_ref(), "mag");

@@ -7,7 +7,7 @@ use attitude_service::filters::{
     build_filter, is_spd, FilterConfig, FilterError, FilterSpec, InitialState,
 };
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use nalgebra::{Matrix3x6, Matrix6, Vector3, Vector6};
 
@@ -96,7 +96,7 @@ fn star_obs(q_true: &Quaternion, refs: &[Vector3<f64>], sigma: f64) -> Vec<Vecto
             reference: *r,
             sigma,
             sensor: Some("st1".into()),
-            heading_about: None,
+            aspect: Aspect::Full,
         })
         .collect()
 }

@@ -25,7 +25,7 @@
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, Estimate, FilterConfig, InitialState};
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config::{ServiceConfig, VehicleFilterConfig};
 use attitude_service::service::vehicle::VehicleState;
@@ -1419,7 +1419,7 @@ fn measurements(restrict: Restrict) -> impl Strategy<Value = Vec<Measurement>> {
                                 reference,
                                 sigma,
                                 sensor: None,
-                                heading_about: None,
+                                aspect: Aspect::Full,
                             });
                         }
                         Measurement::Vectors(ObservationSet {
@@ -1537,6 +1537,8 @@ fn run_filter(
                     observations,
                 })
             }
+            // (The generator makes none: a raw IMU sample is not a filter input.)
+            Measurement::Imu(_) => m.clone(),
         };
         let m = &stamped;
         let before = f.estimate();

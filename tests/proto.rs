@@ -18,8 +18,8 @@ use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
-    InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg,
-    ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
+    ImuDiagnosticsMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection,
+    ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;
@@ -522,6 +522,25 @@ fn full_estimate() -> EstimateMsg {
             rollbacks: 0,
             reinits: BTreeMap::from([("gate".to_string(), 1)]),
             held: 2,
+            imu: Some(ImuDiagnosticsMsg {
+                samples: 5000,
+                at_rest: false,
+                rest_samples: 1200,
+                bias_updates: 4,
+                tilt_updates: 170,
+                tilt_gated: 1,
+                heading_updates: 160,
+                mag_rejected: 10,
+                mag_disturbed: true,
+                mag_new_fields: 0,
+                mag_hard_iron_changes: 1,
+                tilt_reacquisitions: 0,
+                heading_reacquisitions: 0,
+                tilt_sigma_lp_deg: 0.3,
+                mag_norm: Some(44.5),
+                mag_dip_deg: Some(69.8),
+                mag_offset: Some([0.3, -0.2, -5.9]),
+            }),
         },
     }
 }

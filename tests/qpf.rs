@@ -7,7 +7,7 @@ use attitude_service::filters::{
     QpfOptions,
 };
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use nalgebra::Vector3;
 use rand::SeedableRng;
@@ -44,7 +44,7 @@ fn observations(
             reference: *r,
             sigma,
             sensor: None,
-            heading_about: None,
+            aspect: Aspect::Full,
         })
         .collect()
 }
@@ -80,7 +80,7 @@ fn undecidable_average_falls_back_to_the_propagated_fiducial_and_counts_it() {
         reference: Vector3::x(),
         sigma: 0.01,
         sensor: None,
-        heading_about: None,
+        aspect: Aspect::Full,
     }];
     FilterCore::update(&mut qpf, &obs).unwrap();
     let e = FilterCore::estimate(&qpf);
@@ -172,7 +172,7 @@ fn a_refused_update_rolls_back() {
             reference: Vector3::x(),
             sigma: 1e-3,
             sensor: None,
-            heading_about: None,
+            aspect: Aspect::Full,
         }],
     });
     assert!(matches!(

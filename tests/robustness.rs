@@ -5,7 +5,7 @@
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, FilterKind, FilterSpec, InitialState};
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config::{Policy, ServiceConfig, VehicleFilterConfig};
 use attitude_service::service::persist::{self, SavedCounters};
@@ -46,7 +46,7 @@ fn set_at(t: f64, truth: &Quaternion, sensor: &str) -> Measurement {
                 reference: *r,
                 sigma: STAR_SIGMA,
                 sensor: Some(sensor.into()),
-                heading_about: None,
+                aspect: Aspect::Full,
             })
             .collect(),
     })
@@ -288,7 +288,7 @@ fn the_gate_refuses_outliers_per_sensor_and_a_wrong_filter_reinitialises() {
         reference: Vector3::new(1.0, 1.0, 0.0).normalize(),
         sigma: STAR_SIGMA,
         sensor: Some("sun".into()),
-        heading_about: None,
+        aspect: Aspect::Full,
     });
     let out = feed(
         &mut v,
@@ -487,7 +487,7 @@ fn rejections_at_release_name_their_stream() {
             reference: Vector3::x(),
             sigma: 1e-3,
             sensor: None,
-            heading_about: None,
+            aspect: Aspect::Full,
         }],
     });
     v.on_measurement(single, 0.0, &p, &mut out).unwrap();

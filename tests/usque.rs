@@ -10,7 +10,7 @@ use attitude_service::filters::{
     InitialState,
 };
 use attitude_service::sensors::{
-    GyroNoise, GyroSample, GyroSimulator, Measurement, ObservationSet, VectorObservation,
+    Aspect, GyroNoise, GyroSample, GyroSimulator, Measurement, ObservationSet, VectorObservation,
 };
 use nalgebra::{Matrix6, Vector3, Vector6};
 use rand::SeedableRng;
@@ -212,7 +212,7 @@ fn simulate(
                     reference: *r,
                     sigma: sigma_obs,
                     sensor: None,
-                    heading_about: None,
+                    aspect: Aspect::Full,
                 })
                 .collect();
             f.process(&Measurement::Vectors(ObservationSet {
@@ -450,7 +450,7 @@ fn obs(body: Vector3<f64>, reference: Vector3<f64>, sigma: f64) -> VectorObserva
         reference,
         sigma,
         sensor: None,
-        heading_about: None,
+        aspect: Aspect::Full,
     }
 }
 

@@ -5,10 +5,10 @@
 
 use super::{
     is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore, FilterError,
-    FilterSpec, InitialState, SavedFilterRef,
+    FilterSpec, GyroErrors, InitialState, SavedFilterRef,
 };
 use crate::attitude::{skew, Quaternion};
-use crate::sensors::{imu, GyroNoise, VectorObservation};
+use crate::sensors::{imu, Aspect, GyroNoise, VectorObservation};
 use nalgebra::{Matrix3, Matrix3x6, Matrix6, Matrix6x3, Vector3, Vector6};
 
 /// Rotation angle below which `Φ` uses Taylor series (no division by `‖ω̂‖`).
@@ -89,13 +89,45 @@ pub fn joseph_update(
     sigma: f64,
     innovation: Option<&Vector3<f64>>,
 ) -> Option<ScalarUpdate> {
+    vector_update(p, predicted_body, sigma, innovation, None)
+}
+
+/// [`joseph_update`] for a tilt-only observation ([`crate::sensors::Aspect::Tilt`]): the gain's
+/// attitude rows are projected on the plane perpendicular to the body-frame vertical `v_body` (the
+/// estimate is tilted, never turned about the vertical) and its bias rows likewise (the tilt never
+/// drives the bias about the vertical, which only a heading observation can tell). The covariance
+/// follows in Joseph form with the full `H`, which holds for any gain.
+pub fn tilt_update(
+    p: &Matrix6<f64>,
+    predicted_body: &Vector3<f64>,
+    v_body: &Vector3<f64>,
+    sigma: f64,
+    innovation: &Vector3<f64>,
+) -> Option<ScalarUpdate> {
+    vector_update(p, predicted_body, sigma, Some(innovation), Some(v_body))
+}
+
+fn vector_update(
+    p: &Matrix6<f64>,
+    predicted_body: &Vector3<f64>,
+    sigma: f64,
+    innovation: Option<&Vector3<f64>>,
+    horizontal_about: Option<&Vector3<f64>>,
+) -> Option<ScalarUpdate> {
     let h = measurement_jacobian(predicted_body);
     let r = sigma * sigma;
     let pht = p * h.transpose();
     let s = h * pht + Matrix3::identity() * r;
     let chol = s.cholesky()?;
     // K = P Hᵀ S⁻¹  ⇔  S Kᵀ = H P.
-    let gain = chol.solve(&pht.transpose()).transpose();
+    let mut gain = chol.solve(&pht.transpose()).transpose();
+    if let Some(v) = horizontal_about {
+        let proj = Matrix3::identity() - v * v.transpose();
+        let ka = proj * gain.fixed_view::<3, 3>(0, 0);
+        let kb = proj * gain.fixed_view::<3, 3>(3, 0);
+        gain.fixed_view_mut::<3, 3>(0, 0).copy_from(&ka);
+        gain.fixed_view_mut::<3, 3>(3, 0).copy_from(&kb);
+    }
     let ikh = Matrix6::identity() - gain * h;
     let mut covariance = ikh * p * ikh.transpose() + gain * gain.transpose() * r;
     symmetrize(&mut covariance);
@@ -111,6 +143,32 @@ pub fn joseph_update(
     })
 }
 
+/// One update with a direct observation of the gyro bias, `z = β + n`, `n ~ N(0, σ² I₃)`
+/// (`H = [0₃, I₃]`; e.g. the mean gyro rate while the vehicle is at rest), Joseph form.
+pub fn bias_update(
+    p: &Matrix6<f64>,
+    sigma: f64,
+    innovation: &Vector3<f64>,
+) -> Option<ScalarUpdate> {
+    let mut h = Matrix3x6::zeros();
+    h.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&Matrix3::identity());
+    let r = sigma * sigma;
+    let pht = p * h.transpose();
+    let s = h * pht + Matrix3::identity() * r;
+    let chol = s.cholesky()?;
+    let gain = chol.solve(&pht.transpose()).transpose();
+    let ikh = Matrix6::identity() - gain * h;
+    let mut covariance = ikh * p * ikh.transpose() + gain * gain.transpose() * r;
+    symmetrize(&mut covariance);
+    Some(ScalarUpdate {
+        gain,
+        covariance,
+        nis: innovation.dot(&chol.solve(innovation)),
+        correction: gain * innovation,
+    })
+}
+
 /// The result of one heading-only update ([`heading_update`]).
 pub struct HeadingUpdate {
     pub covariance: Matrix6<f64>,
@@ -122,7 +180,8 @@ pub struct HeadingUpdate {
 /// `H = [hᵀ, 0₃]` ([`crate::sensors::imu::heading_jacobian`]; `h·v = 1` for the body-frame vertical `v`,
 /// and `h` also holds the leak of a tilt error into the heading, `∝ tan dip`), `R = σ_ψ²`, innovation
 /// `nu`. The attitude part of the Kalman gain is projected on `v` (`K_α ← v vᵀ K_α`) so that the update
-/// turns the estimate about the vertical only, never tilts it; the covariance follows in Joseph form
+/// turns the estimate about the vertical only, never tilts it, and so is its bias part (`K_β ← v vᵀ K_β`:
+/// a field error never drives the horizontal bias, which gravity observes); the covariance follows in Joseph form
 /// `P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ` with the full `H`, which holds for any gain. `None` when
 /// `S ≤ 0`.
 pub fn heading_update(
@@ -141,10 +200,13 @@ pub fn heading_update(
     }
     let mut gain = ph / s;
     let ka = Vector3::new(gain[0], gain[1], gain[2]);
+    let kb = Vector3::new(gain[3], gain[4], gain[5]);
     let ka = v_body * v_body.dot(&ka);
-    gain[0] = ka[0];
-    gain[1] = ka[1];
-    gain[2] = ka[2];
+    let kb = v_body * v_body.dot(&kb);
+    for i in 0..3 {
+        gain[i] = ka[i];
+        gain[i + 3] = kb[i];
+    }
     let ikh = Matrix6::identity() - gain * h.transpose();
     let mut covariance = ikh * p * ikh.transpose() + gain * gain.transpose() * r;
     symmetrize(&mut covariance);
@@ -159,6 +221,7 @@ pub fn heading_update(
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Mekf {
     gyro: GyroNoise,
+    gyro_errors: GyroErrors,
     q: Quaternion,
     bias: Vector3<f64>,
     p: Matrix6<f64>,
@@ -176,8 +239,10 @@ impl Mekf {
                 "initial sigmas must be positive and finite".into(),
             ));
         }
+        config.gyro_errors.validate()?;
         Ok(Mekf {
             gyro: config.gyro,
+            gyro_errors: config.gyro_errors,
             q,
             bias: initial.bias_rad_s,
             p,
@@ -202,6 +267,22 @@ impl FilterCore for Mekf {
         let omega_hat = omega_meas_rad_s - self.bias;
         let phi = transition_matrix(&omega_hat, dt_s);
         let mut p = phi * self.p * phi.transpose() + process_noise(&self.gyro, dt_s);
+        let extra = self.gyro_errors.rate_variance(&omega_hat, dt_s);
+        for i in 0..3 {
+            p[(i, i)] += extra;
+        }
+        // A bounded (Gauss–Markov) bias reverts to zero: x_β ← φ x_β.
+        let phi_b = self.gyro_errors.bias_reversion(&self.gyro, dt_s);
+        let mut bias = self.bias;
+        if phi_b < 1.0 {
+            bias *= phi_b;
+            for i in 0..6 {
+                for j in 3..6 {
+                    p[(i, j)] *= phi_b;
+                    p[(j, i)] *= phi_b;
+                }
+            }
+        }
         symmetrize(&mut p);
         let q = self.q.propagate(&omega_hat, dt_s);
         if !q.is_finite() || !p.iter().all(|x| x.is_finite()) {
@@ -210,6 +291,7 @@ impl FilterCore for Mekf {
             });
         }
         self.q = q;
+        self.bias = bias;
         self.p = p;
         self.diagnostics.propagations += 1;
         Ok(())
@@ -225,7 +307,19 @@ impl FilterCore for Mekf {
         let mut nis = 0.0;
         let mut dof = 0;
         for (index, o) in observations.iter().enumerate() {
-            if let Some(up) = &o.heading_about {
+            if let Aspect::Tilt(up) = &o.aspect {
+                let predicted = a * o.reference;
+                let nu = o.body - predicted - measurement_jacobian(&predicted) * dx;
+                let v = a * (up / up.norm());
+                let u = tilt_update(&p, &predicted, &v, o.sigma, &nu)
+                    .ok_or(FilterError::SingularInnovation { index })?;
+                dx += u.correction;
+                p = u.covariance;
+                nis += u.nis;
+                dof += 2;
+                continue;
+            }
+            if let Aspect::Heading(up) = &o.aspect {
                 // A heading-only observation (crate::sensors::imu): y = −ψ(Â⁻), H = [hᵀ, 0].
                 let Some((e1, e2, horizontal)) = imu::heading_basis(&o.reference, up) else {
                     continue;
@@ -273,10 +367,37 @@ impl FilterCore for Mekf {
         Ok(())
     }
 
-    fn inflate_attitude(&mut self, var_rad2: f64) {
-        for i in 0..3 {
-            self.p[(i, i)] += var_rad2;
+    fn update_bias(&mut self, z_rad_s: &Vector3<f64>, sigma_rad_s: f64) -> Result<(), FilterError> {
+        let nu = z_rad_s - self.bias;
+        let u = bias_update(&self.p, sigma_rad_s, &nu)
+            .ok_or(FilterError::SingularInnovation { index: 0 })?;
+        let dalpha = Vector3::new(u.correction[0], u.correction[1], u.correction[2]);
+        let q = Quaternion::from_rotation_vector(&dalpha)
+            .compose(&self.q)
+            .normalized()
+            .ok_or(FilterError::NonFinite {
+                step: "bias update",
+            })?;
+        let bias = self.bias + Vector3::new(u.correction[3], u.correction[4], u.correction[5]);
+        if !q.is_finite() || !bias.iter().all(|b| b.is_finite()) {
+            return Err(FilterError::NonFinite {
+                step: "bias update",
+            });
         }
+        if !is_spd(&u.covariance) {
+            return Err(FilterError::NotPositiveDefinite {
+                step: "bias update",
+            });
+        }
+        self.q = q;
+        self.bias = bias;
+        self.p = u.covariance;
+        Ok(())
+    }
+
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>) {
+        let mut block = self.p.fixed_view_mut::<3, 3>(0, 0);
+        block += cov_rad2;
     }
 
     fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {

@@ -16,8 +16,8 @@ pub mod qpf;
 pub mod usque;
 
 use crate::attitude::Quaternion;
-use crate::sensors::{GyroNoise, Measurement, VectorObservation};
-use nalgebra::{Matrix6, Vector3};
+use crate::sensors::{Aspect, GyroNoise, Measurement, VectorObservation};
+use nalgebra::{Matrix3, Matrix6, Vector3};
 use std::fmt;
 use std::str::FromStr;
 use thiserror::Error;
@@ -130,6 +130,68 @@ pub struct FilterConfig {
     pub usque: UsqueOptions,
     /// How the uncertainty grows while gyro samples are missing.
     pub gap: GapModel,
+    /// Gyro errors beyond the Farrenkopf model (none by default).
+    #[serde(default)]
+    pub gyro_errors: GyroErrors,
+}
+
+/// Gyro errors of real (MEMS) gyros beyond the Farrenkopf model of [`GyroNoise`]. The default adds
+/// nothing (the filters are then exactly the textbook ones).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GyroErrors {
+    /// Rate-proportional angle noise `k`, √s: the attitude variance grows by `(k ‖ω̂‖)² Δt` per step on
+    /// top of `σ_v² Δt`, for the scale-factor, misalignment and g-sensitivity errors that make a gyro
+    /// worse when it turns fast (a noise model of errors that are really slow: noise scheduling, so the
+    /// covariance keeps up with them).
+    pub rate_noise_sqrt_s: f64,
+    /// The gyro bias as a first-order Gauss–Markov process with this stationary 1σ per axis, rad/s
+    /// (`β̇ = −β/τ + η_u`, `τ = 2 σ_b²/σ_u²`): its uncertainty stays bounded however long it is not
+    /// observed, and the estimate relaxes to zero over `τ`. Infinite: the random walk `β̇ = η_u`.
+    pub bias_limit_rad_s: f64,
+}
+
+impl Default for GyroErrors {
+    fn default() -> Self {
+        GyroErrors {
+            rate_noise_sqrt_s: 0.0,
+            bias_limit_rad_s: f64::INFINITY,
+        }
+    }
+}
+
+impl GyroErrors {
+    pub fn validate(&self) -> Result<(), FilterError> {
+        if !(self.rate_noise_sqrt_s >= 0.0 && self.rate_noise_sqrt_s.is_finite()) {
+            return Err(FilterError::InvalidConfig(
+                "gyro rate noise must be finite and non-negative".into(),
+            ));
+        }
+        if !(self.bias_limit_rad_s > 0.0) {
+            return Err(FilterError::InvalidConfig(
+                "gyro bias limit must be positive (infinite: none)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The attitude variance per axis added over `dt_s` at the estimated rate `omega`: `(k ‖ω‖)² Δt`.
+    pub fn rate_variance(&self, omega_rad_s: &Vector3<f64>, dt_s: f64) -> f64 {
+        let k = self.rate_noise_sqrt_s;
+        if k == 0.0 {
+            return 0.0;
+        }
+        k * k * omega_rad_s.norm_squared() * dt_s
+    }
+
+    /// `φ = e^{−Δt/τ}` of the Gauss–Markov bias, `τ = 2 σ_b²/σ_u²` (1 for a random walk).
+    pub fn bias_reversion(&self, gyro: &GyroNoise, dt_s: f64) -> f64 {
+        let sb = self.bias_limit_rad_s;
+        if !sb.is_finite() || gyro.sigma_u <= 0.0 {
+            return 1.0;
+        }
+        let tau = 2.0 * sb * sb / (gyro.sigma_u * gyro.sigma_u);
+        (-dt_s / tau).exp()
+    }
 }
 
 /// The uncertainty added while no gyro sample arrives.
@@ -175,6 +237,7 @@ impl FilterConfig {
             qpf: QpfOptions::default(),
             usque: UsqueOptions::default(),
             gap: GapModel::default(),
+            gyro_errors: GyroErrors::default(),
         }
     }
 }
@@ -292,9 +355,13 @@ pub trait FilterCore: Send {
     fn bias_rad_s(&self) -> Vector3<f64> {
         self.estimate().bias_rad_s
     }
-    /// Adds `var_rad2` to the attitude-error variance about every body axis (uncertainty the gyro
-    /// model does not know of, e.g. a gyro gap). `var_rad2` is finite and non-negative.
-    fn inflate_attitude(&mut self, var_rad2: f64);
+    /// Updates with a direct observation of the gyro bias, `z = β + n`, `n ~ N(0, σ² I₃)` (rad/s; e.g.
+    /// the mean gyro rate while the vehicle is known to be at rest).
+    fn update_bias(&mut self, z_rad_s: &Vector3<f64>, sigma_rad_s: f64) -> Result<(), FilterError>;
+    /// Adds `cov_rad2` to the covariance of the body-frame attitude error (uncertainty the gyro model
+    /// does not know of: a gyro gap, a re-acquisition). `cov_rad2` is finite, symmetric and positive
+    /// semi-definite.
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>);
     /// Borrows the whole filter (with its driver) for a checkpoint.
     fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_>
     where
@@ -310,6 +377,19 @@ pub trait AttitudeFilter: Send {
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError>;
     /// Propagates to `t_s` (no later than the next measurement's time) without using a measurement.
     fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError>;
+    /// Propagates to `t_s`, then updates with a direct observation of the gyro bias
+    /// ([`FilterCore::update_bias`]).
+    fn observe_bias(
+        &mut self,
+        t_s: f64,
+        z_rad_s: &Vector3<f64>,
+        sigma_rad_s: f64,
+    ) -> Result<(), FilterError>;
+    /// Adds `cov_rad2` to the attitude-error covariance now ([`FilterCore::inflate_attitude`]);
+    /// refused unless finite and symmetric positive semi-definite.
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>) -> Result<(), FilterError>;
+    /// The gyro-bias estimate, rad/s (cheaper than [`AttitudeFilter::estimate`]).
+    fn bias_rad_s(&self) -> Vector3<f64>;
     fn estimate(&self) -> Estimate;
     /// The filter's complete state, borrowed for a checkpoint ([`SavedFilter`] restores it).
     fn saved(&self) -> SavedFilterRef<'_>;
@@ -446,7 +526,7 @@ impl<F: FilterCore> Driver<F> {
             // checked finite above, cannot fail.
             self.core.propagate(&omega, dt)?;
             if let Some((var, started)) = inflation {
-                self.core.inflate_attitude(var);
+                self.core.inflate_attitude(&(Matrix3::identity() * var));
                 if started {
                     self.gyro_gaps += 1;
                 }
@@ -490,11 +570,11 @@ pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
                         "observation {i}: sigma must be positive and finite"
                     )));
                 }
-                if let Some(up) = &o.heading_about {
-                    check_finite(up.iter().copied(), "heading axis")?;
+                if let Aspect::Heading(up) | Aspect::Tilt(up) = &o.aspect {
+                    check_finite(up.iter().copied(), "vertical axis")?;
                     if up.norm() == 0.0 {
                         return Err(FilterError::InvalidMeasurement(format!(
-                            "observation {i}: zero heading axis"
+                            "observation {i}: zero vertical axis"
                         )));
                     }
                 }
@@ -506,6 +586,10 @@ pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
             }
             Ok(())
         }
+        Measurement::Imu(_) => Err(FilterError::InvalidMeasurement(
+            "a raw IMU sample is not a filter input: it goes through the sensor models of crate::ahrs"
+                .into(),
+        )),
     }
 }
 
@@ -540,12 +624,50 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
             }
             Measurement::Vectors(set) if set.observations.is_empty() => Ok(()),
             Measurement::Vectors(set) => self.core.update(&set.observations),
+            // (Refused by `validate` above.)
+            Measurement::Imu(_) => Ok(()),
         }
     }
 
     fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError> {
         check_finite([t_s], "time")?;
         self.propagate_to(t_s)
+    }
+
+    fn observe_bias(
+        &mut self,
+        t_s: f64,
+        z_rad_s: &Vector3<f64>,
+        sigma_rad_s: f64,
+    ) -> Result<(), FilterError> {
+        check_finite([t_s, sigma_rad_s], "bias observation time and sigma")?;
+        check_finite(z_rad_s.iter().copied(), "bias observation")?;
+        if !(sigma_rad_s > 0.0) {
+            return Err(FilterError::InvalidMeasurement(
+                "bias observation: sigma must be positive".into(),
+            ));
+        }
+        self.propagate_to(t_s)?;
+        self.core.update_bias(z_rad_s, sigma_rad_s)
+    }
+
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>) -> Result<(), FilterError> {
+        let symmetric = (cov_rad2 - cov_rad2.transpose()).amax() <= 1e-12 * cov_rad2.amax();
+        let psd = cov_rad2
+            .symmetric_eigenvalues()
+            .iter()
+            .all(|l| *l >= -1e-15);
+        if !(cov_rad2.iter().all(|x| x.is_finite()) && symmetric && psd) {
+            return Err(FilterError::InvalidMeasurement(
+                "attitude inflation must be finite, symmetric and positive semi-definite".into(),
+            ));
+        }
+        self.core.inflate_attitude(cov_rad2);
+        Ok(())
+    }
+
+    fn bias_rad_s(&self) -> Vector3<f64> {
+        self.core.bias_rad_s()
     }
 
     fn estimate(&self) -> Estimate {
@@ -570,6 +692,7 @@ pub fn build_filter(
     initial: &InitialState,
     seed: u64,
 ) -> Result<Box<dyn AttitudeFilter>, FilterError> {
+    config.gyro_errors.validate()?;
     // Variances are squares of these: they must stay finite.
     let sane = |v: &Vector3<f64>| v.iter().all(|x| (x * x).is_finite());
     if !sane(&initial.sigma_att_rad)

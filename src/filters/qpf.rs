@@ -29,14 +29,14 @@
 
 use super::{
     Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind,
-    FilterSpec, InitialState, SavedFilterRef,
+    FilterSpec, GyroErrors, InitialState, SavedFilterRef,
 };
 use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::rng::{standard_normal, ziggurat};
 use crate::sensors::gyro::normal3;
 use crate::sensors::{imu, GyroNoise, VectorObservation};
-use nalgebra::{Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_distr::{Beta, Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -232,6 +232,7 @@ pub struct Qpf {
     fiducial: Fiducial,
     options: QpfOptions,
     gyro: GyroNoise,
+    gyro_errors: GyroErrors,
     cloud: Cloud,
     /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update back.
     /// (Working buffers are not part of a checkpoint: [`Qpf::reallocate`] sizes them after a restore.)
@@ -365,6 +366,7 @@ impl Qpf {
             fiducial: config.spec.fiducial.unwrap_or(Fiducial::Average),
             options,
             gyro: config.gyro,
+            gyro_errors: config.gyro_errors,
             scratch: cloud.clone(),
             backup: cloud.clone(),
             cloud,
@@ -477,15 +479,30 @@ impl Qpf {
         cloud_moments(&self.cloud, fid, &self.beta_hat, Some(&mut self.local))
     }
 
-    fn log_likelihoods(&mut self, observations: &[VectorObservation]) {
+    fn log_likelihoods(&mut self, evidence: &Evidence<'_>) {
+        let observations = match evidence {
+            Evidence::Vectors(o) => *o,
+            Evidence::Bias(z, sigma) => {
+                // −½ ‖z − βᵢ‖²/σ²: a direct observation of the bias.
+                let k = -0.5 / (sigma * sigma);
+                let c = &self.cloud;
+                for (i, out) in self.log_lik.iter_mut().enumerate() {
+                    let d = [z[0] - c.bx[i], z[1] - c.by[i], z[2] - c.bz[i]];
+                    *out = k * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                }
+                return;
+            }
+        };
         // Per observation: reference, measurement and −½σ⁻², computed once (the buffer is reused).
+        // A tilt-only observation has the likelihood of its full direction (gravity says nothing about
+        // the heading, so the weights cannot turn the cloud about the vertical).
         self.obs_terms.clear();
         // A heading-only observation (crate::sensors::imu) holds [e₁; b; −½σ_ψ⁻²; e₂; 1]: its
         // log-likelihood is −½ψ²/σ_ψ², ψ = atan2(b·(A e₂), b·(A e₁)). One whose reference has no
         // horizontal part says nothing and is left out.
         self.obs_terms.extend(observations.iter().filter_map(|o| {
             let b = &o.body;
-            match &o.heading_about {
+            match o.aspect.heading_axis() {
                 None => {
                     let r = &o.reference;
                     Some([
@@ -681,13 +698,27 @@ impl Qpf {
         (q, Vector3::new(mean[3], mean[4], mean[5]), j * cov * j)
     }
 
-    fn try_update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError> {
+    /// One update, rolled back on failure: the cloud and the weights are restored from a
+    /// preallocated copy.
+    fn update_with(&mut self, evidence: &Evidence<'_>) -> Result<(), FilterError> {
+        self.backup.copy_from(&self.cloud);
+        let saved = (self.q_prop, self.diagnostics.clone());
+        let result = self.try_update(evidence);
+        if result.is_err() {
+            self.cloud.copy_from(&self.backup);
+            self.q_prop = saved.0;
+            self.diagnostics = saved.1;
+        }
+        result
+    }
+
+    fn try_update(&mut self, evidence: &Evidence<'_>) -> Result<(), FilterError> {
         // 1. The propagated estimate is the chart centre of `propagated`, and for `average` the sign
         //    reference and the fallback; the average itself is taken after the weights change (a
         //    prior-weight average would be replaced at once by the re-centring below).
         let mut fid = self.q_prop;
         // 2–3. Progressive correction with re-centring after every weight change.
-        self.log_likelihoods(observations);
+        self.log_likelihoods(evidence);
         let mut remaining = 1.0;
         let mut stages = 0u32;
         loop {
@@ -715,7 +746,7 @@ impl Qpf {
             }
             let (mean, cov) = self.locals_and_moments(&fid);
             self.resample_and_regularize(&fid, &mean, &cov);
-            self.log_likelihoods(observations);
+            self.log_likelihoods(evidence);
         }
         // 4. The estimate before the final resampling.
         let (mean, cov) = self.locals_and_moments(&fid);
@@ -743,6 +774,13 @@ impl Qpf {
         self.diagnostics.updates += 1;
         Ok(())
     }
+}
+
+/// What an update weighs the particles by.
+enum Evidence<'a> {
+    Vectors(&'a [VectorObservation]),
+    /// A direct observation of the bias and its 1σ, rad/s.
+    Bias(Vector3<f64>, f64),
 }
 
 /// The weighted mean and covariance of the local states `[MRP(qᵢ ⊗ fid⁻¹); βᵢ]` in one pass, storing the
@@ -852,8 +890,20 @@ impl FilterCore for Qpf {
     /// Samples the discrete gyro model exactly for each particle: `βᵢ' = βᵢ + σ_u √Δt N`,
     /// `ω̂ᵢ = ω̃ − ½(βᵢ + βᵢ') − (σ_v²/Δt + σ_u²Δt/12)^{½} N`, `qᵢ ← Ω(ω̂ᵢ) qᵢ`.
     fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
-        let su = self.gyro.sigma_u * dt_s.sqrt();
-        let sw = self.gyro.discrete_rate_sigma(dt_s);
+        // A Gauss–Markov bias (GyroErrors::bias_limit_rad_s) reverts by φ per step with the same
+        // stationary spread; a random walk has φ = 1.
+        let phi_b = self.gyro_errors.bias_reversion(&self.gyro, dt_s);
+        let su = if phi_b < 1.0 {
+            let sb = self.gyro_errors.bias_limit_rad_s;
+            sb * (1.0 - phi_b * phi_b).sqrt()
+        } else {
+            self.gyro.sigma_u * dt_s.sqrt()
+        };
+        // The rate-proportional noise adds (k ‖ω̂‖)² Δt of attitude variance: (k ‖ω̂‖)²/Δt of rate.
+        let extra = self
+            .gyro_errors
+            .rate_variance(&(omega_meas_rad_s - self.beta_hat), dt_s);
+        let sw = (self.gyro.discrete_rate_sigma(dt_s).powi(2) + extra / (dt_s * dt_s)).sqrt();
         let w_meas = [
             omega_meas_rad_s[0],
             omega_meas_rad_s[1],
@@ -876,7 +926,7 @@ impl FilterCore for Qpf {
             let mut th = [0.0; 3];
             for k in 0..3 {
                 let (nu, nv) = z.sample_pair(rng);
-                b1[k] = b0[k] + su * nu;
+                b1[k] = phi_b * b0[k] + su * nu;
                 th[k] = (w_meas[k] - 0.5 * (b0[k] + b1[k]) - sw * nv) * dt_s;
             }
             let (sf, cf) = half_angle_terms(th[0] * th[0] + th[1] * th[1] + th[2] * th[2]);
@@ -890,37 +940,36 @@ impl FilterCore for Qpf {
         self.q_prop = self
             .q_prop
             .propagate(&(omega_meas_rad_s - self.beta_hat), dt_s);
+        self.beta_hat *= phi_b;
         self.stale = true;
         self.diagnostics.propagations += 1;
         Ok(())
     }
 
     fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError> {
-        // Roll back on failure: the cloud and the weights are restored from a preallocated copy.
-        self.backup.copy_from(&self.cloud);
-        let saved = (self.q_prop, self.diagnostics.clone());
-        let result = self.try_update(observations);
-        if result.is_err() {
-            self.cloud.copy_from(&self.backup);
-            self.q_prop = saved.0;
-            self.diagnostics = saved.1;
-        }
-        result
+        self.update_with(&Evidence::Vectors(observations))
+    }
+
+    fn update_bias(&mut self, z_rad_s: &Vector3<f64>, sigma_rad_s: f64) -> Result<(), FilterError> {
+        self.update_with(&Evidence::Bias(*z_rad_s, sigma_rad_s))
     }
 
     fn bias_rad_s(&self) -> Vector3<f64> {
         self.beta_hat
     }
 
-    /// Jitters every particle's attitude by an independent `N(0, var_rad2 I)` rotation vector.
-    fn inflate_attitude(&mut self, var_rad2: f64) {
-        if var_rad2 <= 0.0 {
+    /// Jitters every particle's attitude by an independent `N(0, cov_rad2)` body-frame rotation vector.
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>) {
+        if cov_rad2.amax() <= 0.0 {
             return;
         }
-        let sigma = var_rad2.sqrt();
+        // A square root of a positive semi-definite matrix (Cholesky may fail on a singular one).
+        let eig = cov_rad2.symmetric_eigen();
+        let l =
+            eig.eigenvectors * Matrix3::from_diagonal(&eig.eigenvalues.map(|v| v.max(0.0).sqrt()));
         for i in 0..self.cloud.len() {
             let (q, b) = (self.cloud.q(i), self.cloud.beta(i));
-            let dalpha = normal3(&mut self.rng) * sigma;
+            let dalpha = l * normal3(&mut self.rng);
             self.cloud.set(
                 i,
                 &Quaternion::from_rotation_vector(&dalpha).compose(&q),

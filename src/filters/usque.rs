@@ -38,11 +38,11 @@
 
 use super::{
     is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore,
-    FilterError, FilterKind, FilterSpec, InitialState, SavedFilterRef,
+    FilterError, FilterKind, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
 };
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
-use crate::sensors::{GyroNoise, VectorObservation};
-use nalgebra::{DMatrix, DVector, Matrix6, Vector3, Vector6};
+use crate::sensors::{Aspect, GyroNoise, VectorObservation};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6, Vector3, Vector6};
 
 /// Dimension of the local state `[δp; β]`.
 pub const N_STATE: usize = 6;
@@ -120,6 +120,7 @@ struct SigmaPoints {
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Usque {
     gyro: GyroNoise,
+    gyro_errors: GyroErrors,
     options: UsqueOptions,
     fiducial: Fiducial,
     /// `(W₀, Wᵢ)`.
@@ -181,8 +182,10 @@ impl Usque {
             fiducial_fallbacks: (fiducial == Fiducial::Average).then_some(0),
             ..Diagnostics::default()
         };
+        config.gyro_errors.validate()?;
         Ok(Usque {
             gyro: config.gyro,
+            gyro_errors: config.gyro_errors,
             options,
             fiducial,
             w0,
@@ -222,12 +225,14 @@ impl Usque {
         }
     }
 
-    /// `Q̄` in the filter's units (attitude block divided by `k²`).
-    fn q_bar(&self, dt_s: f64) -> Matrix6<f64> {
+    /// `Q̄` in the filter's units (attitude block divided by `k²`), with half the rate-proportional
+    /// noise of [`GyroErrors`] at the estimated rate `omega_hat` (`Q̄` is added twice).
+    fn q_bar(&self, dt_s: f64, omega_hat: &Vector3<f64>) -> Matrix6<f64> {
         let k = self.options.grp.small_angle_factor();
         let mut q = process_noise_bar(&self.gyro, dt_s);
+        let extra = 0.5 * self.gyro_errors.rate_variance(omega_hat, dt_s);
         for i in 0..3 {
-            q[(i, i)] /= k * k;
+            q[(i, i)] = (q[(i, i)] + extra) / (k * k);
         }
         q
     }
@@ -301,7 +306,7 @@ impl FilterCore for Usque {
             ));
         }
         let grp = self.options.grp;
-        let q_bar = self.q_bar(dt_s);
+        let q_bar = self.q_bar(dt_s, &(omega_meas_rad_s - bias_part(&self.x)));
         // 1. σ = ± columns of chol((n + λ)(P + Q̄)).
         let l = self
             .spread(&(self.p + q_bar))
@@ -354,6 +359,19 @@ impl FilterCore for Usque {
             let d = ci - x;
             p += d * d.transpose() * self.weight(i);
         }
+        // A bounded (Gauss–Markov) bias reverts to zero: x_β ← φ x_β.
+        let phi_b = self.gyro_errors.bias_reversion(&self.gyro, dt_s);
+        if phi_b < 1.0 {
+            for i in 3..6 {
+                x[i] *= phi_b;
+            }
+            for i in 0..6 {
+                for j in 3..6 {
+                    p[(i, j)] *= phi_b;
+                    p[(j, i)] *= phi_b;
+                }
+            }
+        }
         symmetrize(&mut p);
         if !all_finite(x.iter()) || !all_finite(p.iter()) || q.iter().any(|qi| !qi.is_finite()) {
             return Err(FilterError::NonFinite {
@@ -396,11 +414,12 @@ impl FilterCore for Usque {
         // USQUE has no scalar update: a heading-only observation is used as the full vector
         // (crate::sensors::imu; it may tilt the estimate).
         let owned: Vec<VectorObservation>;
-        let observations = if observations.iter().any(|o| o.heading_about.is_some()) {
+        // A tilt-only observation is used as the full vector too (its likelihood is the full one).
+        let observations = if observations.iter().any(|o| o.aspect != Aspect::Full) {
             owned = observations
                 .iter()
                 .map(|o| VectorObservation {
-                    heading_about: None,
+                    aspect: Aspect::Full,
                     ..o.clone()
                 })
                 .collect();
@@ -521,13 +540,56 @@ impl FilterCore for Usque {
     }
 
     /// `q̂ = GRP⁻¹(δp̂) ⊗ q_ref`, `β̂`, and `J P J` with `J = diag(k, k, k, 1, 1, 1)`, `δα ≈ k δp`.
+    /// A linear Kalman update (`H = [0₃, I₃]`: exact for any Gaussian filter), Joseph form; the
+    /// attitude correction is folded into the chart centre as after a vector update, and the kept sigma
+    /// points are dropped (the next update redraws them).
+    fn update_bias(&mut self, z_rad_s: &Vector3<f64>, sigma_rad_s: f64) -> Result<(), FilterError> {
+        let nu = z_rad_s - bias_part(&self.x);
+        let mut h = Matrix3x6::zeros();
+        h.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&Matrix3::identity());
+        let r = sigma_rad_s * sigma_rad_s;
+        let pht = self.p * h.transpose();
+        let chol = (h * pht + Matrix3::identity() * r)
+            .cholesky()
+            .ok_or(FilterError::SingularInnovation { index: 0 })?;
+        let gain = chol.solve(&pht.transpose()).transpose();
+        let ikh = Matrix6::identity() - gain * h;
+        let mut p = ikh * self.p * ikh.transpose() + gain * gain.transpose() * r;
+        symmetrize(&mut p);
+        let x = self.x + gain * nu;
+        let q_new = self
+            .options
+            .grp
+            .to_quaternion(&attitude_part(&x))
+            .compose(&self.q_ref)
+            .normalized()
+            .ok_or(FilterError::NonFinite {
+                step: "bias update",
+            })?;
+        if !q_new.is_finite() || !all_finite(x.iter()) {
+            return Err(FilterError::NonFinite {
+                step: "bias update",
+            });
+        }
+        if !is_spd(&p) {
+            return Err(FilterError::NotPositiveDefinite {
+                step: "bias update",
+            });
+        }
+        self.q_ref = q_new;
+        self.x = Vector6::new(0.0, 0.0, 0.0, x[3], x[4], x[5]);
+        self.p = p;
+        self.sigma = None;
+        Ok(())
+    }
+
     /// In the filter's units (`δα ≈ k δp`); the kept sigma points no longer describe the inflated
     /// distribution, so the next update redraws them.
-    fn inflate_attitude(&mut self, var_rad2: f64) {
+    fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>) {
         let k = self.options.grp.small_angle_factor();
-        for i in 0..3 {
-            self.p[(i, i)] += var_rad2 / (k * k);
-        }
+        let mut block = self.p.fixed_view_mut::<3, 3>(0, 0);
+        block += cov_rad2 / (k * k);
         self.sigma = None;
     }
 

@@ -13,7 +13,7 @@
 //!   from the reference's dip by more than `dip_limit_rad`. A disturbed observation is not used, and
 //!   the service keeps the sensor suspended for `holdoff_s` after the last disturbed one. With
 //!   `heading_only` the observation corrects only the rotation about the vertical (the filter sees a
-//!   heading-only observation, [`VectorObservation::heading_about`]), so a field error never tilts the
+//!   heading-only observation, [`super::Aspect::Heading`]), so a field error never tilts the
 //!   estimate.
 //!
 //! **Heading-only observation.** With `up` the reference frame's vertical (unit), `e₁` the unit
@@ -33,7 +33,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::VectorObservation;
+use super::{Aspect, VectorObservation};
 use crate::attitude::Quaternion;
 
 /// The accelerometer as a gravity-direction observation.
@@ -225,7 +225,7 @@ impl GravityModel {
             reference: r,
             sigma: o.sigma / o.reference.norm() * (1.0 + self.sigma_norm_scale * d),
             sensor: o.sensor.clone(),
-            heading_about: None,
+            aspect: Aspect::Full,
         })
     }
 }
@@ -260,7 +260,11 @@ impl FieldModel {
             reference: r,
             sigma: o.sigma / o.reference.norm() * (1.0 + self.sigma_norm_scale * d),
             sensor: o.sensor.clone(),
-            heading_about: self.heading_only.then_some(up),
+            aspect: if self.heading_only {
+                Aspect::Heading(up)
+            } else {
+                Aspect::Full
+            },
         })
     }
 }
@@ -325,7 +329,7 @@ mod tests {
             reference,
             sigma,
             sensor: Some("s".into()),
-            heading_about: None,
+            aspect: Aspect::Full,
         }
     }
 
@@ -377,7 +381,7 @@ mod tests {
         let Verdict::Use(u) = m.apply(&obs(a * r, r, 5.0), &a) else {
             panic!("clean")
         };
-        assert_eq!(u.heading_about, Some(Vector3::z()));
+        assert_eq!(u.aspect, Aspect::Heading(Vector3::z()));
         assert!((u.sigma - 0.1).abs() < 1e-12);
         assert!(matches!(
             m.apply(&obs(a * r * 1.2, r, 5.0), &a),

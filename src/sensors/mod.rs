@@ -32,13 +32,37 @@ pub struct VectorObservation {
     pub sigma: f64,
     /// Optional sensor name, for per-sensor settings and statistics.
     pub sensor: Option<String>,
-    /// `Some(up)`: a heading-only observation. Only the rotation about the reference-frame axis `up`
-    /// (unit) is observed: the angle, about `up`, between the horizontal part (perpendicular to `up`)
-    /// of `reference` and that of the measurement rotated into the reference frame. Its 1σ is
-    /// `sigma / ‖horizontal part of reference‖` rad. The filters never tilt the estimate with it (see
-    /// [`imu`]). `None`: the full vector observation above.
+    /// Which part of the attitude the observation informs (see [`Aspect`]).
     #[serde(default)]
-    pub heading_about: Option<Vector3<f64>>,
+    pub aspect: Aspect,
+}
+
+/// Which part of the attitude a vector observation informs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Aspect {
+    /// The whole direction: `b̃ = A(q) r + v`, `v ~ N(0, σ² I₃)`.
+    #[default]
+    Full,
+    /// Heading only about the reference-frame axis `up` (unit): the angle, about `up`, between the
+    /// horizontal part (perpendicular to `up`) of `reference` and that of the measurement rotated into
+    /// the reference frame. Its 1σ is `sigma / ‖horizontal part of reference‖` rad. The filters never
+    /// tilt the estimate with it (see [`imu`]); its bias correction acts about the vertical only.
+    Heading(Vector3<f64>),
+    /// The direction of `up` (a gravity observation, `reference` ∥ `up`): the likelihood of the full
+    /// direction (which says nothing about the rotation about `up`), but the Kalman filters turn the
+    /// estimate about horizontal axes only and leave the gyro bias along the vertical alone, so that
+    /// an acceleration mistaken for gravity never moves the heading or its bias (see [`imu`]).
+    Tilt(Vector3<f64>),
+}
+
+impl Aspect {
+    /// The vertical of a heading-only observation.
+    pub fn heading_axis(&self) -> Option<&Vector3<f64>> {
+        match self {
+            Aspect::Heading(up) => Some(up),
+            _ => None,
+        }
+    }
 }
 
 /// The vector observations taken at one instant.
@@ -48,11 +72,24 @@ pub struct ObservationSet {
     pub observations: Vec<VectorObservation>,
 }
 
-/// A time-stamped input to a filter.
+/// One raw IMU sample: the body-frame rate over `(t_prev, t]` (rad/s), the specific force (m/s²) and,
+/// optionally, the magnetic field (any unit). A vehicle turns it into filter inputs with
+/// [`crate::ahrs`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ImuSample {
+    pub t_s: f64,
+    pub gyr_rad_s: Vector3<f64>,
+    pub acc_m_s2: Vector3<f64>,
+    pub mag: Option<Vector3<f64>>,
+}
+
+/// A time-stamped input of a vehicle. A filter takes `Gyro` and `Vectors`; an `Imu` sample reaches it
+/// through the sensor models of [`crate::ahrs`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Measurement {
     Gyro(GyroSample),
     Vectors(ObservationSet),
+    Imu(ImuSample),
 }
 
 impl Measurement {
@@ -60,6 +97,7 @@ impl Measurement {
         match self {
             Measurement::Gyro(g) => g.t_s,
             Measurement::Vectors(v) => v.t_s,
+            Measurement::Imu(s) => s.t_s,
         }
     }
 }

@@ -12,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::gyro::normal3;
-use super::VectorObservation;
+use super::{Aspect, VectorObservation};
 use crate::attitude::Quaternion;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
@@ -263,7 +263,7 @@ impl StarCamera {
                 reference: r,
                 sigma: self.sigma_rad,
                 sensor: Some(Self::SENSOR_NAME.to_string()),
-                heading_about: None,
+                aspect: Aspect::Full,
             })
             .collect()
     }
@@ -327,7 +327,7 @@ impl SunSensor {
             reference: r,
             sigma: self.sigma_rad,
             sensor: Some(Self::SENSOR_NAME.to_string()),
-            heading_about: None,
+            aspect: Aspect::Full,
         })
     }
 }
@@ -361,7 +361,7 @@ impl MagnetometerModel {
             reference: *field_ref_nt,
             sigma: self.sigma_nt,
             sensor: Some(Self::SENSOR_NAME.to_string()),
-            heading_about: None,
+            aspect: Aspect::Full,
         }
     }
 }

@@ -3,9 +3,11 @@
 //! [`ServiceConfig`]. `config/default.json5` documents every option; a test loads it.
 
 use super::fleet::{default_instance_name, FleetConfig, FleetMode};
+use crate::ahrs::{AccConfig, AhrsConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig};
 use crate::attitude::Grp;
 use crate::filters::{
-    Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, Kernel, QpfOptions, UsqueOptions,
+    Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, GyroErrors, Kernel, QpfOptions,
+    UsqueOptions,
 };
 use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
 use crate::sensors::GyroNoise;
@@ -52,6 +54,7 @@ struct RawService {
     time: RawTime,
     gate: RawGate,
     sensors: BTreeMap<String, RawSensor>,
+    imu: RawImu,
     health: RawHealth,
     persistence: RawPersistence,
     fleet: RawFleet,
@@ -68,6 +71,7 @@ impl Default for RawService {
             time: RawTime::default(),
             gate: RawGate::default(),
             sensors: BTreeMap::new(),
+            imu: RawImu::default(),
             health: RawHealth::default(),
             persistence: RawPersistence::default(),
             fleet: RawFleet::default(),
@@ -216,6 +220,19 @@ fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorModel>, String
     }
 }
 
+/// `service.imu`: the raw-IMU pipeline (crate::ahrs) and how often an IMU vehicle publishes.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+struct RawImu {
+    /// Most estimates per second an IMU vehicle publishes (0: one per sample).
+    max_estimate_rate_hz: f64,
+    init: InitConfig,
+    rest: RestConfig,
+    acc: AccConfig,
+    mag: MagConfig,
+    recovery: RecoveryConfig,
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct RawHealth {
@@ -275,6 +292,8 @@ struct RawFilter {
     gyro_rrw_rad_s_sqrt_s: f64,
     init: String,
     init_bias_sigma_deg_hr: f64,
+    gyro_rate_noise_sqrt_s: f64,
+    gyro_bias_limit_deg_s: Option<f64>,
     qpf: RawQpf,
     usque: RawUsque,
     gap: RawGap,
@@ -291,6 +310,8 @@ impl Default for RawFilter {
             gyro_rrw_rad_s_sqrt_s: g.sigma_u,
             init: "vectors".into(),
             init_bias_sigma_deg_hr: 10.0,
+            gyro_rate_noise_sqrt_s: 0.0,
+            gyro_bias_limit_deg_s: None,
             qpf: RawQpf::default(),
             usque: RawUsque::default(),
             gap: RawGap::default(),
@@ -352,6 +373,8 @@ struct RawFilterOverride {
     gyro_rrw_rad_s_sqrt_s: Option<f64>,
     init: Option<String>,
     init_bias_sigma_deg_hr: Option<f64>,
+    gyro_rate_noise_sqrt_s: Option<f64>,
+    gyro_bias_limit_deg_s: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -434,6 +457,10 @@ pub struct Policy {
     pub max_sensors_per_vehicle: usize,
     /// Largest gyro rate (and reset bias) accepted, rad/s.
     pub max_rate_rad_s: f64,
+    /// The raw-IMU pipeline of `P/V/imu` vehicles.
+    pub imu: AhrsConfig,
+    /// Least interval between two published estimates of an IMU vehicle, s (0: every sample).
+    pub imu_estimate_interval_s: f64,
 }
 
 impl Policy {
@@ -504,7 +531,17 @@ pub fn load(path: &Path) -> Result<FileConfig, ConfigError> {
 
 /// Parses a configuration text (`origin` names it in errors).
 pub fn parse(text: &str, origin: &str) -> Result<FileConfig, ConfigError> {
-    let value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
+    parse_with(text, origin, &[])
+}
+
+/// [`parse`] with values replaced before validation: `("service.imu.acc.sigma_rad", 0.004)` sets that
+/// field (creating the objects on its path), as if the file said so (studies and tuning).
+pub fn parse_with(
+    text: &str,
+    origin: &str,
+    overrides: &[(String, serde_json::Value)],
+) -> Result<FileConfig, ConfigError> {
+    let mut value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
         path: origin.to_string(),
         message: e.to_string(),
     })?;
@@ -512,6 +549,20 @@ pub fn parse(text: &str, origin: &str) -> Result<FileConfig, ConfigError> {
         path: origin.to_string(),
         message,
     };
+    for (path, v) in overrides {
+        let mut at = &mut value;
+        for key in path.split('.') {
+            let serde_json::Value::Object(map) = at else {
+                return Err(invalid(format!(
+                    "override {path}: {key} is not in an object"
+                )));
+            };
+            at = map
+                .entry(key.to_string())
+                .or_insert_with(|| serde_json::Value::Object(Default::default()));
+        }
+        *at = v.clone();
+    }
     let raw: RawFile = serde_json::from_value(value).map_err(|e| invalid(e.to_string()))?;
     let zenoh_json = match raw.zenoh {
         None => DEFAULT_ZENOH_JSON.to_string(),
@@ -629,6 +680,16 @@ fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, Str
         grp: Grp::new(u.a, u.f),
         lambda: u.lambda,
     };
+    filter.gyro_errors = GyroErrors {
+        rate_noise_sqrt_s: raw.gyro_rate_noise_sqrt_s,
+        bias_limit_rad_s: raw
+            .gyro_bias_limit_deg_s
+            .map_or(f64::INFINITY, f64::to_radians),
+    };
+    filter
+        .gyro_errors
+        .validate()
+        .map_err(|e| format!("{at}: {e} (gyro_rate_noise_sqrt_s, gyro_bias_limit_deg_s)"))?;
     let g = &raw.gap;
     if !(g.after_s > 0.0 && g.accel_sigma_rad_s2 >= 0.0 && g.accel_sigma_rad_s2.is_finite()) {
         return Err(format!(
@@ -673,6 +734,12 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         }
         if let Some(v) = o.init_bias_sigma_deg_hr {
             f.init_bias_sigma_deg_hr = v;
+        }
+        if let Some(v) = o.gyro_rate_noise_sqrt_s {
+            f.gyro_rate_noise_sqrt_s = v;
+        }
+        if o.gyro_bias_limit_deg_s.is_some() {
+            f.gyro_bias_limit_deg_s = o.gyro_bias_limit_deg_s;
         }
         overrides.insert(
             vehicle.clone(),
@@ -734,7 +801,23 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     if !(pz.checkpoint_interval_s > 0.0 && pz.checkpoint_interval_s.is_finite()) {
         return Err("service.persistence.checkpoint_interval_s must be positive".into());
     }
+    let imu = AhrsConfig {
+        init: raw.imu.init.clone(),
+        rest: raw.imu.rest.clone(),
+        acc: raw.imu.acc.clone(),
+        mag: raw.imu.mag.clone(),
+        recovery: raw.imu.recovery.clone(),
+    };
+    imu.validate().map_err(|e| format!("service.imu.{e}"))?;
+    let rate = raw.imu.max_estimate_rate_hz;
+    if !(rate >= 0.0 && rate.is_finite()) {
+        return Err(format!(
+            "service.imu.max_estimate_rate_hz must be 0 (every sample) or positive, got {rate}"
+        ));
+    }
     let policy = Policy {
+        imu,
+        imu_estimate_interval_s: if rate > 0.0 { 1.0 / rate } else { 0.0 },
         reorder_window_s: t.reorder_window_s,
         max_jump_s: t.max_jump_s,
         gate_threshold: threshold(raw.gate.probability, "service.gate.probability")?,

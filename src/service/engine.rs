@@ -16,7 +16,7 @@ use super::vehicle::{Event, Stream, VehicleState};
 use crate::sensors::Measurement;
 use crate::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
-    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, RejectCode, Rejection, ResetMsg,
+    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, RejectCode, Rejection, ResetMsg,
     ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
 };
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
@@ -583,7 +583,7 @@ impl Engine {
         self.schedule(&v);
     }
 
-    /// Decodes a gyro or vectors payload into measurements (`None` for other leaves).
+    /// Decodes a gyro, vectors or IMU payload into measurements (`None` for other leaves).
     fn decode(&self, leaf: Leaf, payload: &[u8]) -> Option<Result<Vec<Measurement>, Rejection>> {
         let limits = &self.config.limits.input;
         Some(match leaf {
@@ -594,6 +594,17 @@ impl Engine {
                     .map(|(i, g)| {
                         g.to_domain(limits)
                             .map(Measurement::Gyro)
+                            .map_err(|e| at(i, items.len(), e))
+                    })
+                    .collect()
+            }),
+            Leaf::Imu => decode_batch::<ImuMsg>(payload, limits).and_then(|items| {
+                items
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| {
+                        s.to_domain(limits)
+                            .map(Measurement::Imu)
                             .map_err(|e| at(i, items.len(), e))
                     })
                     .collect()
@@ -897,10 +908,7 @@ impl Engine {
                 let now = self.now_s();
                 match input {
                     Input::Measurement(m) => {
-                        let stream = match m {
-                            Measurement::Gyro(_) => Stream::Gyro,
-                            Measurement::Vectors(_) => Stream::Vectors,
-                        };
+                        let stream = super::vehicle::stream_of(&m);
                         if let Err(r) = state.on_measurement(m, now, policy, &mut events) {
                             self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
@@ -945,6 +953,7 @@ impl Engine {
             match stream {
                 Stream::Gyro => Leaf::Gyro,
                 Stream::Vectors => Leaf::Vectors,
+                Stream::Imu => Leaf::Imu,
             },
         )
     }

@@ -5,6 +5,7 @@
 pub enum Leaf {
     Gyro,
     Vectors,
+    Imu,
     Estimate,
     Rejected,
     Truth,
@@ -19,6 +20,7 @@ impl Leaf {
         match self {
             Leaf::Gyro => "gyro",
             Leaf::Vectors => "vectors",
+            Leaf::Imu => "imu",
             Leaf::Estimate => "estimate",
             Leaf::Rejected => "rejected",
             Leaf::Truth => "truth",
@@ -33,6 +35,7 @@ impl Leaf {
         Some(match s {
             "gyro" => Leaf::Gyro,
             "vectors" => Leaf::Vectors,
+            "imu" => Leaf::Imu,
             "estimate" => Leaf::Estimate,
             "rejected" => Leaf::Rejected,
             "truth" => Leaf::Truth,

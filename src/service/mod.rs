@@ -94,6 +94,11 @@ pub async fn run(
         .callback(callback.clone())
         .await
         .map_err(zerr)?;
+    let imu = session
+        .declare_subscriber(keys.all(Leaf::Imu))
+        .callback(callback.clone())
+        .await
+        .map_err(zerr)?;
     // A dynamic fleet member also follows the others' estimates (where a takeover starts), then
     // joins: see `join_fleet`.
     let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
@@ -189,6 +194,7 @@ pub async fn run(
     // since), then close the session.
     let _ = gyro.undeclare().await;
     let _ = vectors.undeclare().await;
+    let _ = imu.undeclare().await;
     if let Some(e) = estimates {
         let _ = e.undeclare().await;
     }

@@ -16,7 +16,7 @@ use thiserror::Error;
 
 const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// 2: a vehicle holds its sensor models' state (`sensors::imu::SensorState`) and observations their
-/// `heading_about`.
+/// `aspect`.
 const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";

@@ -10,14 +10,19 @@
 //! What happens to released samples is reported as [`Event`]s.
 
 use super::config::{InitMode, Policy, VehicleFilterConfig};
+use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
     build_filter, is_spd, AttitudeFilter, Estimate, Fiducial, FilterError, FilterKind, FilterSpec,
     InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
 use crate::sensors::imu::{SensorState, Verdict};
-use crate::sensors::{GyroSample, Measurement, ObservationSet, VectorObservation};
-use crate::wire::{EstimateMsg, GateCountsMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg};
+use crate::sensors::{
+    Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
+};
+use crate::wire::{
+    EstimateMsg, GateCountsMsg, ImuDiagnosticsMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
+};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
@@ -41,17 +46,21 @@ const GATE_MAX_PRIOR_SIGMA_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 /// Consistent samples beyond a time jump that re-anchor the vehicle's time.
 pub const JUMP_CONFIRMATIONS: u32 = 3;
 
-/// The two input streams of a vehicle (they arrive on different keys and may be reordered).
+/// The input streams of a vehicle (they arrive on different keys and may be reordered).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Stream {
     Gyro = 0,
     Vectors = 1,
+    Imu = 2,
 }
 
-fn stream_of(m: &Measurement) -> Stream {
+const STREAMS: usize = 3;
+
+pub fn stream_of(m: &Measurement) -> Stream {
     match m {
         Measurement::Gyro(_) => Stream::Gyro,
         Measurement::Vectors(_) => Stream::Vectors,
+        Measurement::Imu(_) => Stream::Imu,
     }
 }
 
@@ -132,10 +141,10 @@ pub struct VehicleState {
     /// The reorder window, sorted by time (arrival order among equal times).
     held: VecDeque<Held>,
     /// Newest time accepted per stream, and the first time accepted at all.
-    newest: [Option<f64>; 2],
+    newest: [Option<f64>; STREAMS],
     first_t: Option<f64>,
     /// `(t, fingerprint)` of recently accepted samples per stream.
-    recent: [VecDeque<(f64, u64)>; 2],
+    recent: [VecDeque<(f64, u64)>; STREAMS],
     jump: Option<JumpCandidate>,
     gate: BTreeMap<String, GateCountsMsg>,
     consecutive_gated: u32,
@@ -147,6 +156,12 @@ pub struct VehicleState {
     /// State of the sensors with a model (`service.sensors.NAME.kind`: gravity low-pass, field
     /// hold-off), by sensor name.
     sensor_state: BTreeMap<String, SensorState>,
+    /// The raw-IMU pipeline of a vehicle fed `P/V/imu` (crate::ahrs).
+    ahrs: Option<Ahrs>,
+    /// Which gyro feeds the vehicle since its start or last reset: `P/V/gyro` or `P/V/imu` (one only).
+    gyro_feed: Option<Stream>,
+    /// Time of the last estimate published from an IMU sample (the rate cap).
+    last_imu_estimate_t: Option<f64>,
 }
 
 fn filter_error(e: &FilterError) -> Rejection {
@@ -191,6 +206,39 @@ fn fingerprint(m: &Measurement) -> u64 {
             let h = fnv(o.sigma.to_bits().to_le_bytes(), h);
             fnv(o.sensor.as_deref().unwrap_or("").bytes().chain([0]), h)
         }),
+        Measurement::Imu(s) => {
+            let h = fnv(bits(&s.gyr_rad_s), FNV_OFFSET);
+            let h = fnv(bits(&s.acc_m_s2), h);
+            match &s.mag {
+                Some(m) => fnv(bits(m), h),
+                None => h,
+            }
+        }
+    }
+}
+
+/// The IMU pipeline's diagnostics as published.
+fn imu_diagnostics(a: &Ahrs) -> ImuDiagnosticsMsg {
+    let c = a.counts();
+    let reference = a.field_reference();
+    ImuDiagnosticsMsg {
+        samples: c.samples,
+        at_rest: c.at_rest,
+        rest_samples: c.rest_samples,
+        bias_updates: c.bias_updates,
+        tilt_updates: c.tilt_updates,
+        tilt_gated: c.tilt_gated,
+        heading_updates: c.heading_updates,
+        mag_rejected: c.mag_rejected,
+        mag_disturbed: c.mag_disturbed,
+        mag_new_fields: c.mag_new_fields,
+        mag_hard_iron_changes: c.mag_hard_iron_changes,
+        tilt_reacquisitions: c.tilt_reacquisitions,
+        heading_reacquisitions: c.heading_reacquisitions,
+        tilt_sigma_lp_deg: c.tilt_sigma_lp_rad.to_degrees(),
+        mag_norm: reference.map(|((_, n, _), _)| n),
+        mag_dip_deg: reference.map(|((_, _, d), _)| d.to_degrees()),
+        mag_offset: reference.map(|(_, o)| [o[0], o[1], o[2]]),
     }
 }
 
@@ -213,9 +261,9 @@ impl VehicleState {
             last_t: None,
             last_gyro: None,
             held: VecDeque::new(),
-            newest: [None, None],
+            newest: [None; STREAMS],
             first_t: None,
-            recent: [VecDeque::new(), VecDeque::new()],
+            recent: std::array::from_fn(|_| VecDeque::new()),
             jump: None,
             gate: BTreeMap::new(),
             consecutive_gated: 0,
@@ -224,6 +272,9 @@ impl VehicleState {
             reinits: BTreeMap::new(),
             last_good: None,
             sensor_state: BTreeMap::new(),
+            ahrs: None,
+            gyro_feed: None,
+            last_imu_estimate_t: None,
         }
     }
 
@@ -281,6 +332,7 @@ impl VehicleState {
         d.rollbacks = self.rollbacks;
         d.reinits = self.reinits.clone();
         d.held = self.held.len();
+        d.imu = self.ahrs.as_ref().map(imu_diagnostics);
         msg
     }
 
@@ -342,6 +394,16 @@ impl VehicleState {
             .iter()
             .find(|(rt, _)| (rt - t).abs() <= SAME_INSTANT_S);
         match (stream, same) {
+            (Stream::Imu, Some((_, rfp))) => {
+                return Err(Rejection::new(
+                    RejectCode::Duplicate,
+                    if *rfp == fp {
+                        format!("the IMU sample at t = {t} s was already accepted")
+                    } else {
+                        format!("a different IMU sample at t = {t} s was already accepted; one sample per instant")
+                    },
+                ))
+            }
             (Stream::Gyro, Some((_, rfp))) => {
                 return Err(Rejection::new(
                     RejectCode::Duplicate,
@@ -363,6 +425,18 @@ impl VehicleState {
                 ))
             }
             _ => {}
+        }
+        if let (Stream::Gyro | Stream::Imu, Some(feed)) = (stream, self.gyro_feed) {
+            if feed != stream {
+                let (this, other) = match stream {
+                    Stream::Imu => ("an IMU sample", "gyro samples (P/V/gyro)"),
+                    _ => ("a gyro sample", "raw IMU samples (P/V/imu)"),
+                };
+                return Err(Rejection::new(
+                    RejectCode::MixedInputs,
+                    format!("{this} for vehicle {}, which is fed {other}: one gyro per vehicle (a reset lets it switch)", self.id),
+                ));
+            }
         }
         if let Some(last) = self.last_t {
             if t < last - SAME_INSTANT_S {
@@ -402,6 +476,9 @@ impl VehicleState {
             }
         }
         self.jump = None;
+        if matches!(stream, Stream::Gyro | Stream::Imu) {
+            self.gyro_feed = Some(stream);
+        }
         let recent = &mut self.recent[stream as usize];
         if recent.len() == RECENT {
             recent.pop_front();
@@ -440,7 +517,15 @@ impl VehicleState {
         // start earlier, so it holds the others; after it, a vehicle without that stream (vectors
         // only, say) does not wait for it.
         let newest = self.newest_any().unwrap_or(f64::NEG_INFINITY);
-        let starting = self.newest.iter().any(Option::is_none)
+        // (Of the two gyro streams only the vehicle's own can still come: P/V/imu and P/V/gyro are
+        // never mixed.)
+        let imu = self.gyro_feed == Some(Stream::Imu);
+        let expected = [!imu, true, imu];
+        let starting = self
+            .newest
+            .iter()
+            .zip(expected)
+            .any(|(n, e)| e && n.is_none())
             && self.first_t.is_some_and(|f| newest - f < window);
         let watermark = if starting {
             f64::NEG_INFINITY
@@ -472,7 +557,8 @@ impl VehicleState {
     fn process(&mut self, m: Measurement, policy: &Policy, out: &mut Vec<Event>) {
         let stream = stream_of(&m);
         let t = m.t_s();
-        if !self.is_tracking() && self.config.init == InitMode::Uniform {
+        // (An IMU vehicle aligns from its samples, whatever the filter's init mode.)
+        if !self.is_tracking() && self.config.init == InitMode::Uniform && stream != Stream::Imu {
             // A particle filter that starts from a uniformly random attitude at its first sample.
             if let Err(r) = self.start_uniform(t) {
                 out.push(Event::Rejected(stream, r));
@@ -486,6 +572,7 @@ impl VehicleState {
                 self.settle_sensors();
                 r
             }
+            Measurement::Imu(s) => self.process_imu(s, policy, out),
         };
         // The filter's time may have advanced even when the input was refused (a failed update
         // after its propagation): later samples are judged against it.
@@ -522,6 +609,41 @@ impl VehicleState {
         }
         // (Only a successful update clears the failure count: propagations say nothing of it.)
         self.last_gyro = Some(g);
+        Ok(())
+    }
+
+    /// One raw IMU sample through the pipeline (crate::ahrs): aligns the vehicle, then drives its
+    /// filter; publishes an estimate per sample (at most one per `policy.imu_estimate_interval_s`).
+    fn process_imu(
+        &mut self,
+        s: ImuSample,
+        policy: &Policy,
+        out: &mut Vec<Event>,
+    ) -> Result<(), Rejection> {
+        let ahrs = self.ahrs.get_or_insert_with(|| Ahrs::new(&policy.imu));
+        match &mut self.slot {
+            Slot::Initializing => {
+                let Some(initial) = ahrs.align(&policy.imu, &s, &self.config.init_bias_sigma_rad_s)
+                else {
+                    return Ok(());
+                };
+                self.start(initial)?;
+            }
+            Slot::Tracking(filter) => {
+                if let Err(e) = ahrs.step(&policy.imu, &s, filter.as_mut()) {
+                    return Err(self.failure(&e, s.t_s, policy, out));
+                }
+                self.consecutive_failures = 0;
+            }
+        }
+        let due = match self.last_imu_estimate_t {
+            Some(t0) => s.t_s - t0 + SAME_INSTANT_S >= policy.imu_estimate_interval_s,
+            None => true,
+        };
+        if due {
+            self.last_imu_estimate_t = Some(s.t_s);
+            self.check_and_emit(policy, out);
+        }
         Ok(())
     }
 
@@ -660,7 +782,7 @@ impl VehicleState {
             let pass = match policy.gate_for(o.sensor.as_deref()) {
                 _ if !informative => true,
                 // A heading-only observation is not judged by the 3-dof vector gate.
-                _ if o.heading_about.is_some() => true,
+                _ if o.aspect != Aspect::Full => true,
                 None => true,
                 Some(threshold) => {
                     // ν = b − A r, S = [b̂×] P [b̂×]ᵀ + σ² I (the MEKF's measurement model).
@@ -1056,6 +1178,9 @@ impl VehicleState {
         // Everything is valid: use what arrived before the reset, then apply it.
         self.flush_all(policy, out);
         let previous = std::mem::replace(&mut self.config, config);
+        // A reset starts the vehicle over: its filters draw the seeds of a new vehicle, so the same
+        // inputs after a reset give the same estimates as into a new vehicle.
+        self.generation = 0;
         match q {
             Some(q) => {
                 let sigma = sigma_deg.unwrap_or(Vector3::repeat(DEFAULT_RESET_SIGMA_DEG))
@@ -1080,10 +1205,14 @@ impl VehicleState {
         if let Some(t) = req.t {
             // A reset with a time re-anchors the vehicle's clock (the way back after a jump).
             self.last_t = Some(t);
-            self.newest = [None, None];
+            self.newest = [None; STREAMS];
             self.first_t = None;
-            self.recent = [VecDeque::new(), VecDeque::new()];
+            self.recent = std::array::from_fn(|_| VecDeque::new());
         }
+        // The IMU pipeline starts again, and the vehicle may switch between P/V/gyro and P/V/imu.
+        self.ahrs = None;
+        self.gyro_feed = None;
+        self.last_imu_estimate_t = None;
         self.jump = None;
         self.consecutive_gated = 0;
         self.consecutive_failures = 0;

@@ -13,6 +13,7 @@
 //! * `us_per_step`: the filter's wall time divided by the number of vector-observation epochs (each step
 //!   includes the gyro propagations since the previous epoch).
 
+pub mod broad;
 pub mod report;
 pub mod runner;
 pub mod sweep;

@@ -4,7 +4,9 @@
 
 use crate::attitude::Quaternion;
 use crate::filters::{build_filter, AttitudeFilter, FilterConfig, FilterError, InitialState};
-use crate::sensors::{GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation};
+use crate::sensors::{
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -75,7 +77,7 @@ impl SteadyState {
                 reference: *r,
                 sigma: 1e-4,
                 sensor: None,
-                heading_about: None,
+                aspect: Aspect::Full,
             })
             .collect();
         (

@@ -43,7 +43,9 @@
 use crate::attitude::{q_method, Quaternion, WahbaError};
 use crate::filters::{build_filter, FilterConfig, FilterError, FilterSpec, InitialState};
 use crate::sensors::imu::{FieldModel, GravityModel, LowpassState, Verdict};
-use crate::sensors::{GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation};
+use crate::sensors::{
+    Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
+};
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::time::Instant;
@@ -358,14 +360,14 @@ fn raw_observations(
             reference: UP * rest.g0,
             sigma: tuning.sigma_gravity_rad * rest.g0,
             sensor: Some("acc".into()),
-            heading_about: None,
+            aspect: Aspect::Full,
         },
         VectorObservation {
             body: s.mag_ut,
             reference: rest.mag_reference * rest.m0,
             sigma: tuning.sigma_mag_rad * rest.m0,
             sensor: Some("mag".into()),
-            heading_about: None,
+            aspect: Aspect::Full,
         },
     ]
 }

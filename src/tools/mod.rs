@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod demo;
 pub mod imu_bench;
+pub mod imu_study;
 pub mod loadgen;
 pub mod simulate;
 pub mod soak;

@@ -8,7 +8,7 @@
 
 use crate::attitude::Quaternion;
 use crate::filters::{Estimate, FilterSpec};
-use crate::sensors::{GyroSample, ObservationSet, VectorObservation};
+use crate::sensors::{Aspect, GyroSample, ImuSample, ObservationSet, VectorObservation};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -62,6 +62,9 @@ pub enum RejectCode {
     OutOfRange,
     /// The vehicle's input queue is full.
     QueueFull,
+    /// A gyro sample for a vehicle fed raw IMU samples, or an IMU sample for one fed gyro samples (one
+    /// gyro per vehicle; a reset lets it switch).
+    MixedInputs,
     /// The filter refused the input (numerical failure); the filter is unchanged.
     FilterError,
     /// Something failed inside the service.
@@ -69,7 +72,7 @@ pub enum RejectCode {
 }
 
 impl RejectCode {
-    pub const ALL: [RejectCode; 19] = [
+    pub const ALL: [RejectCode; 20] = [
         RejectCode::InvalidUtf8,
         RejectCode::InvalidJson,
         RejectCode::BadRequest,
@@ -87,6 +90,7 @@ impl RejectCode {
         RejectCode::TimeJump,
         RejectCode::OutOfRange,
         RejectCode::QueueFull,
+        RejectCode::MixedInputs,
         RejectCode::FilterError,
         RejectCode::Internal,
     ];
@@ -110,6 +114,7 @@ impl RejectCode {
             RejectCode::TimeJump => "time_jump",
             RejectCode::OutOfRange => "out_of_range",
             RejectCode::QueueFull => "queue_full",
+            RejectCode::MixedInputs => "mixed_inputs",
             RejectCode::FilterError => "filter_error",
             RejectCode::Internal => "internal",
         }
@@ -185,6 +190,64 @@ pub struct ObservationMsg {
 pub struct VectorsMsg {
     pub t: f64,
     pub obs: Vec<ObservationMsg>,
+}
+
+/// `P/V/imu`: one raw IMU sample, `{"t": 12.5, "gyr": [3] rad/s, "acc": [3] m/s², "mag": [3]}` (body
+/// frame; `mag` in any unit, optional; the rate covers the interval since the previous sample).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuMsg {
+    pub t: f64,
+    pub gyr: [f64; 3],
+    pub acc: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mag: Option<[f64; 3]>,
+}
+
+/// Largest accelerometer reading accepted, m/s² (1000 g: beyond any accelerometer's range).
+pub const MAX_ACC_M_S2: f64 = 1e4;
+
+impl ImuMsg {
+    /// Validates the sample. A magnetometer reading of exactly `[0, 0, 0]` means "no reading" (how
+    /// many drivers fill a missing one) and is taken as absent.
+    pub fn to_domain(&self, limits: &InputLimits) -> Result<ImuSample, Rejection> {
+        let t_s = finite_time(self.t)?;
+        let gyr = finite3(&self.gyr, "gyr")?;
+        if gyr.norm() > limits.max_rate_rad_s {
+            return Err(Rejection::new(
+                RejectCode::OutOfRange,
+                format!(
+                    "|gyr| = {:e} rad/s exceeds limits.max_rate_rad_s = {}",
+                    gyr.norm(),
+                    limits.max_rate_rad_s
+                ),
+            ));
+        }
+        let acc = finite3(&self.acc, "acc")?;
+        if acc.norm() > MAX_ACC_M_S2 {
+            return Err(Rejection::new(
+                RejectCode::OutOfRange,
+                format!(
+                    "|acc| = {:e} m/s² exceeds {MAX_ACC_M_S2:e} m/s²",
+                    acc.norm()
+                ),
+            ));
+        }
+        let mag = match &self.mag {
+            None => None,
+            Some(m) => {
+                let m = finite3(m, "mag")?;
+                within(m.amax(), "mag")?;
+                (m != Vector3::zeros()).then_some(m)
+            }
+        };
+        Ok(ImuSample {
+            t_s,
+            gyr_rad_s: gyr,
+            acc_m_s2: acc,
+            mag,
+        })
+    }
 }
 
 /// Limits applied while parsing inputs.
@@ -310,7 +373,7 @@ impl ObservationMsg {
             reference,
             sigma: self.sigma,
             sensor: self.sensor.clone(),
-            heading_about: None,
+            aspect: Aspect::Full,
         })
     }
 }
@@ -586,6 +649,44 @@ pub struct DiagnosticsMsg {
     /// Samples waiting in the reorder window.
     #[serde(default)]
     pub held: usize,
+    /// The raw-IMU pipeline of a vehicle fed `P/V/imu` (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imu: Option<ImuDiagnosticsMsg>,
+}
+
+/// What the raw-IMU pipeline has done and sees now (`crate::ahrs`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuDiagnosticsMsg {
+    /// IMU samples taken.
+    pub samples: u64,
+    /// At rest now, and samples at rest so far.
+    pub at_rest: bool,
+    pub rest_samples: u64,
+    /// Gyro-bias updates at rest, tilt (gravity) updates, tilt updates left out by the norm gate,
+    /// heading (magnetometer) updates, heading updates left out as disturbed.
+    pub bias_updates: u64,
+    pub tilt_updates: u64,
+    pub tilt_gated: u64,
+    pub heading_updates: u64,
+    pub mag_rejected: u64,
+    /// The magnetic field is disturbed now; new fields and hard-iron offsets accepted so far.
+    pub mag_disturbed: bool,
+    pub mag_new_fields: u64,
+    pub mag_hard_iron_changes: u64,
+    /// Times the tilt or heading covariance was widened because the innovations stayed inconsistent.
+    pub tilt_reacquisitions: u64,
+    pub heading_reacquisitions: u64,
+    /// The 1σ the gravity direction was given at the last tilt update (motion included), deg.
+    pub tilt_sigma_lp_deg: f64,
+    /// The magnetic reference (norm in the magnetometer's unit, dip in deg, body-frame hard-iron
+    /// offset), once there is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mag_norm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mag_dip_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mag_offset: Option<[f64; 3]>,
 }
 
 /// One sensor's gate counts.

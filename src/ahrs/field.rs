@@ -1,0 +1,470 @@
+//! The magnetometer as an observation of the heading, with what disturbs it indoors and on a vehicle.
+//!
+//! * **Reference from the data.** The field is known by its norm `B₀` and dip `δ₀` (angle below the
+//!   horizon), taken at the alignment and adapted slowly (`reference_s`) while undisturbed. Its
+//!   horizontal direction defines north: the reference frame is East-North-Up with magnetic north.
+//! * **Disturbance** ([`FieldChannel::update`]): the norm and dip of the reading (dip against the
+//!   accelerometer's low-passed vertical, so that no heading estimate enters), low-passed over
+//!   `lowpass_s`, are compared with the reference: beyond `norm_limit` (relative) or `dip_limit_rad`
+//!   the field is disturbed, and it counts as undisturbed again only after `min_undisturbed_s` in
+//!   bounds. While disturbed it is not used for up to `max_rejection_s` (a budget that refills at
+//!   `rejection_factor` times the rate while undisturbed); after that it is used with its σ multiplied
+//!   by `rejection_factor` (a field that stays different for good must not let the heading drift
+//!   forever).
+//! * **A new field** (moved to another place, or a calibration that changed): readings whose norm and
+//!   dip stay consistent with each other for `new_field_s` of rotation (time counted only while the
+//!   vehicle turns faster than `new_field_min_rate_rad_s`, so that a disturbance seen from one
+//!   attitude cannot pass) become the new reference.
+//! * **A magnet that moves with the body** (hard iron): the reading is `m = A C + o` with `C` the
+//!   field and `o` a body-frame offset. A recursive least-squares fit of `(C, o)` over the last
+//!   `hard_iron.window_s`, with `A` the gyro frame's attitude (the gyro's rotation alone), tells a
+//!   body-fixed offset from a disturbance of the place; when the field is disturbed and the fit
+//!   explains the readings (small residuals, offset well determined by enough rotation, `C` with the
+//!   reference's norm and dip) for `hard_iron.confirm_s`, the offset is accepted and subtracted from
+//!   every reading, its uncertainty added to the heading's.
+//! * **Heading only, honest σ.** An accepted reading corrects the rotation about the vertical only
+//!   ([`crate::sensors::Aspect::Heading`]), every `interval_s`, with the 1σ of a heading error that is
+//!   slow and correlated over `correlation_s` (`σ √(T_c / T_u)`), as field inhomogeneity is.
+
+use super::lowpass::first_order;
+use super::{HardIronConfig, MagConfig};
+use crate::sensors::imu::dip_rad;
+use crate::sensors::{Aspect, VectorObservation};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+
+/// The reference-frame vertical (East-North-Up).
+const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
+
+/// Recursive least squares with exponential forgetting for `m = A C + o`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HardIronFit {
+    /// `Σ λ HᵀH`, `Σ λ Hᵀm`, `Σ λ mᵀm`, `Σ λ` (samples), with `H = [A, I]`.
+    info: Matrix6<f64>,
+    rhs: Vector6<f64>,
+    ss: f64,
+    n: f64,
+    /// Low-passed squared residual of the readings against the last solution.
+    recent_ms: f64,
+    solution: Option<HardIronSolution>,
+}
+
+/// A solution of [`HardIronFit`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HardIronSolution {
+    /// The field in the gyro frame and the body-frame offset, in the reading's units.
+    pub field_gyro: Vector3<f64>,
+    pub offset: Vector3<f64>,
+    /// RMS residual per axis over the window, and the offset's largest 1σ.
+    pub residual_rms: f64,
+    pub offset_sigma: f64,
+}
+
+impl Default for HardIronFit {
+    fn default() -> Self {
+        HardIronFit {
+            info: Matrix6::zeros(),
+            rhs: Vector6::zeros(),
+            ss: 0.0,
+            n: 0.0,
+            recent_ms: 0.0,
+            solution: None,
+        }
+    }
+}
+
+impl HardIronFit {
+    fn add(&mut self, c: &HardIronConfig, m: &Vector3<f64>, a_gyro: &Matrix3<f64>, dt_s: f64) {
+        let lambda = (-dt_s.max(0.0) / c.window_s.max(1e-9)).exp();
+        self.info *= lambda;
+        self.rhs *= lambda;
+        self.ss *= lambda;
+        self.n *= lambda;
+        // HᵀH = [[AᵀA, Aᵀ], [A, I]] = [[I, Aᵀ], [A, I]] for a rotation A.
+        let mut hth = Matrix6::identity();
+        hth.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&a_gyro.transpose());
+        hth.fixed_view_mut::<3, 3>(3, 0).copy_from(a_gyro);
+        self.info += hth;
+        let atm = a_gyro.transpose() * m;
+        self.rhs += Vector6::new(atm[0], atm[1], atm[2], m[0], m[1], m[2]);
+        self.ss += m.norm_squared();
+        self.n += 1.0;
+        if let Some(s) = &self.solution {
+            let r = m - a_gyro * s.field_gyro - s.offset;
+            self.recent_ms = first_order(self.recent_ms, r.norm_squared() / 3.0, dt_s, c.recent_s);
+        }
+        if !(self.info.iter().all(|v| v.is_finite()) && self.ss.is_finite()) {
+            *self = HardIronFit::default();
+        }
+    }
+
+    fn solve(&mut self) -> Option<HardIronSolution> {
+        if self.n < 10.0 {
+            return None;
+        }
+        let chol = self.info.cholesky()?;
+        let x = chol.solve(&self.rhs);
+        let ss = (self.ss - x.dot(&self.rhs)).max(0.0);
+        let dof = (3.0 * self.n - 6.0).max(1.0);
+        let var = ss / dof;
+        let inv = chol.inverse();
+        let offset_cov = inv.fixed_view::<3, 3>(3, 3) * var;
+        let offset_sigma = offset_cov.symmetric_eigenvalues().amax().max(0.0).sqrt();
+        let s = HardIronSolution {
+            field_gyro: Vector3::new(x[0], x[1], x[2]),
+            offset: Vector3::new(x[3], x[4], x[5]),
+            residual_rms: var.sqrt(),
+            offset_sigma,
+        };
+        if !(s.field_gyro.iter().all(|v| v.is_finite())
+            && s.offset.iter().all(|v| v.is_finite())
+            && s.offset_sigma.is_finite())
+        {
+            return None;
+        }
+        self.solution = Some(s);
+        Some(s)
+    }
+
+    /// The RMS residual per axis over the window of the best field `C` with the offset held at `o`
+    /// (`C = J_CC⁻¹ (b_C − J_Co o)`; `J_CC` is the identity times the sample weight).
+    fn residual_with_offset(&self, o: &Vector3<f64>) -> f64 {
+        if self.n < 10.0 {
+            return f64::INFINITY;
+        }
+        let j_co = self.info.fixed_view::<3, 3>(0, 3).into_owned();
+        let b_c = Vector3::new(self.rhs[0], self.rhs[1], self.rhs[2]);
+        let b_o = Vector3::new(self.rhs[3], self.rhs[4], self.rhs[5]);
+        let c = (b_c - j_co * o) / self.info[(0, 0)];
+        let x = Vector6::new(c[0], c[1], c[2], o[0], o[1], o[2]);
+        // ss − 2 xᵀb + xᵀJx.
+        let ss = self.ss - 2.0 * (c.dot(&b_c) + o.dot(&b_o)) + x.dot(&(self.info * x));
+        (ss.max(0.0) / (3.0 * self.n - 3.0).max(1.0)).sqrt()
+    }
+
+    /// RMS residual of the recent readings against the last solution.
+    fn recent_rms(&self) -> f64 {
+        self.recent_ms.max(0.0).sqrt()
+    }
+}
+
+/// What the channel makes of the moment.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeadingObservation {
+    NotDue,
+    /// Due, but the field is disturbed and within its rejection budget.
+    Rejected,
+    Use(VectorObservation),
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FieldChannel {
+    /// The reference field in the reference frame: unit direction, norm (reading units), dip (rad).
+    direction: Vector3<f64>,
+    norm: f64,
+    dip: f64,
+    /// The accepted body-frame offset (hard iron) and its 1σ, reading units.
+    offset: Vector3<f64>,
+    offset_sigma: f64,
+    /// Low-passed norm and dip of the corrected reading.
+    lp_norm: f64,
+    lp_dip: f64,
+    lp_ready: bool,
+    disturbed: bool,
+    undisturbed_s: f64,
+    /// Rejection time used from the budget, s.
+    rejected_s: f64,
+    candidate_norm: f64,
+    candidate_dip: f64,
+    candidate_s: f64,
+    fit: HardIronFit,
+    fit_ok_s: f64,
+    since_update_s: f64,
+    since_solve_s: f64,
+    /// Counts: accepted new fields and hard-iron offsets.
+    pub new_fields: u64,
+    pub hard_iron_changes: u64,
+}
+
+impl FieldChannel {
+    /// The channel for a reference field of `norm` with dip `dip_rad`, its horizontal part along
+    /// `north` (a unit horizontal vector of the reference frame).
+    pub fn new(norm: f64, dip_rad: f64, north: &Vector3<f64>) -> Self {
+        let mut f = FieldChannel {
+            direction: Vector3::zeros(),
+            norm,
+            dip: dip_rad,
+            offset: Vector3::zeros(),
+            offset_sigma: 0.0,
+            lp_norm: norm,
+            lp_dip: dip_rad,
+            lp_ready: false,
+            disturbed: false,
+            undisturbed_s: 0.0,
+            rejected_s: 0.0,
+            candidate_norm: norm,
+            candidate_dip: dip_rad,
+            candidate_s: 0.0,
+            fit: HardIronFit::default(),
+            fit_ok_s: 0.0,
+            since_update_s: f64::INFINITY,
+            since_solve_s: 0.0,
+            new_fields: 0,
+            hard_iron_changes: 0,
+        };
+        f.set_reference(norm, dip_rad, north);
+        f
+    }
+
+    fn set_reference(&mut self, norm: f64, dip: f64, north: &Vector3<f64>) {
+        let h = (north - UP * north.dot(&UP))
+            .try_normalize(1e-12)
+            .unwrap_or(Vector3::y());
+        self.norm = norm;
+        self.dip = dip;
+        self.direction = h * dip.cos() - UP * dip.sin();
+    }
+
+    /// The reference direction (unit, reference frame), norm and dip.
+    pub fn reference(&self) -> (Vector3<f64>, f64, f64) {
+        (self.direction, self.norm, self.dip)
+    }
+
+    pub fn disturbed(&self) -> bool {
+        self.disturbed
+    }
+
+    pub fn offset(&self) -> Vector3<f64> {
+        self.offset
+    }
+
+    fn within(&self, c: &MagConfig, norm: f64, dip: f64, ref_norm: f64, ref_dip: f64) -> bool {
+        (norm - ref_norm).abs() < c.norm_limit * ref_norm && (dip - ref_dip).abs() < c.dip_limit_rad
+    }
+
+    /// Takes one reading (body frame); `up_body` is the accelerometer's low-passed vertical in the body
+    /// frame, `up_gyro` the same in the gyro frame, `a_gyro` the gyro frame's attitude matrix,
+    /// `rate_rad_s` the low-passed turn rate.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(
+        &mut self,
+        c: &MagConfig,
+        mag: &Vector3<f64>,
+        up_body: &Vector3<f64>,
+        up_gyro: &Vector3<f64>,
+        a_gyro: &Matrix3<f64>,
+        rate_rad_s: f64,
+        dt_s: f64,
+    ) {
+        let dt = dt_s.max(0.0);
+        self.since_update_s += dt;
+        self.since_solve_s += dt;
+        if c.hard_iron.enabled {
+            self.fit.add(&c.hard_iron, mag, a_gyro, dt);
+        }
+        let m = mag - self.offset;
+        let n = m.norm();
+        if !(n > 0.0 && n.is_finite()) {
+            return;
+        }
+        let dip = dip_rad(&(m / n), up_body);
+        if self.lp_ready {
+            self.lp_norm = first_order(self.lp_norm, n, dt, c.lowpass_s);
+            self.lp_dip = first_order(self.lp_dip, dip, dt, c.lowpass_s);
+        } else {
+            (self.lp_norm, self.lp_dip, self.lp_ready) = (n, dip, true);
+        }
+        let (ln, ld) = (self.lp_norm, self.lp_dip);
+        if self.within(c, ln, ld, self.norm, self.dip) {
+            self.undisturbed_s += dt;
+            if self.undisturbed_s >= c.min_undisturbed_s {
+                self.disturbed = false;
+                self.norm = first_order(self.norm, ln, dt, c.reference_s);
+                self.dip = first_order(self.dip, ld, dt, c.reference_s);
+                let h = self.direction - UP * self.direction.dot(&UP);
+                self.set_reference(self.norm, self.dip, &h);
+            }
+        } else {
+            self.undisturbed_s = 0.0;
+            self.disturbed = true;
+        }
+        // A new field: consistent readings over enough rotation.
+        if self.within(c, ln, ld, self.candidate_norm, self.candidate_dip) {
+            if rate_rad_s >= c.new_field_min_rate_rad_s {
+                self.candidate_s += dt;
+            }
+            self.candidate_norm = first_order(self.candidate_norm, ln, dt, c.reference_s);
+            self.candidate_dip = first_order(self.candidate_dip, ld, dt, c.reference_s);
+            if self.disturbed && self.candidate_s >= c.new_field_s {
+                let h = self.direction - UP * self.direction.dot(&UP);
+                self.set_reference(self.candidate_norm, self.candidate_dip, &h);
+                self.disturbed = false;
+                self.undisturbed_s = c.min_undisturbed_s;
+                self.new_fields += 1;
+            }
+        } else {
+            self.candidate_s = 0.0;
+            self.candidate_norm = ln;
+            self.candidate_dip = ld;
+        }
+        if c.hard_iron.enabled && self.since_solve_s >= c.hard_iron.solve_interval_s {
+            let interval = self.since_solve_s;
+            self.since_solve_s = 0.0;
+            self.judge_fit(c, up_gyro, interval);
+        }
+        // The rejection budget.
+        if self.disturbed {
+            self.rejected_s += dt;
+        } else {
+            self.rejected_s = (self.rejected_s - c.rejection_factor * dt).max(0.0);
+        }
+    }
+
+    /// Accepts the hard-iron fit once it has explained the readings for `confirm_s` with an offset
+    /// that differs from the accepted one. (Whether the field looks disturbed does not matter: a small
+    /// offset passes the norm and dip checks at many attitudes and still turns the heading.)
+    fn judge_fit(&mut self, c: &MagConfig, up_gyro: &Vector3<f64>, interval_s: f64) {
+        let h = &c.hard_iron;
+        let Some(s) = self.fit.solve() else {
+            self.fit_ok_s = 0.0;
+            return;
+        };
+        let scale = self.norm.max(1e-12);
+        let field_norm = s.field_gyro.norm();
+        let field_dip = if field_norm > 0.0 {
+            dip_rad(&(s.field_gyro / field_norm), up_gyro)
+        } else {
+            f64::NAN
+        };
+        let good = s.offset_sigma <= h.max_offset_sigma * scale
+            && s.residual_rms <= h.max_residual * scale
+            && self.fit.recent_rms() <= h.max_residual * scale
+            && self.within(c, field_norm, field_dip, self.norm, self.dip)
+            && (s.offset - self.offset).norm() >= (h.min_change * scale).max(3.0 * s.offset_sigma)
+            // The new offset must explain the window clearly better than the accepted one (field
+            // inhomogeneity along a path also fits a small offset, but hardly better than none).
+            && self.fit.residual_with_offset(&self.offset) >= h.min_improvement * s.residual_rms;
+        if !good {
+            // (A moment's doubt, e.g. one fast turn, does not undo the evidence gathered: it takes
+            // twice as long off as on.)
+            self.fit_ok_s = (self.fit_ok_s - 2.0 * interval_s).max(0.0);
+            return;
+        }
+        self.fit_ok_s += interval_s;
+        if self.fit_ok_s >= h.confirm_s {
+            self.offset = s.offset;
+            self.offset_sigma = s.offset_sigma;
+            self.fit_ok_s = 0.0;
+            self.hard_iron_changes += 1;
+            // The corrected readings are judged afresh.
+            self.lp_ready = false;
+            self.disturbed = false;
+            self.undisturbed_s = c.min_undisturbed_s;
+            self.candidate_s = 0.0;
+        }
+    }
+
+    /// The heading observation when one is due (every `interval_s`), from the reading `mag`.
+    pub fn observation(&mut self, c: &MagConfig, mag: &Vector3<f64>) -> HeadingObservation {
+        if self.since_update_s + 1e-9 < c.interval_s {
+            return HeadingObservation::NotDue;
+        }
+        self.since_update_s = 0.0;
+        let mut weight = 1.0;
+        if self.disturbed {
+            if self.rejected_s <= c.max_rejection_s {
+                return HeadingObservation::Rejected;
+            }
+            weight = c.rejection_factor;
+        }
+        let Some(body) = (mag - self.offset).try_normalize(1e-12) else {
+            return HeadingObservation::NotDue;
+        };
+        let horizontal = self.dip.cos().abs().max(1e-3);
+        // The heading 1σ: the field's own, and what the offset's uncertainty turns into.
+        let offset_heading = self.offset_sigma / (self.norm * horizontal).max(1e-12);
+        let sigma_psi = (c.sigma_rad * c.sigma_rad + offset_heading * offset_heading).sqrt()
+            * weight
+            * (c.correlation_s / c.interval_s.max(1e-9)).max(1.0).sqrt();
+        HeadingObservation::Use(VectorObservation {
+            body,
+            reference: self.direction,
+            // heading_sigma_rad(σ, ‖r_h‖) = σ/‖r_h‖ = σ_ψ.
+            sigma: sigma_psi * horizontal,
+            sensor: Some("mag".into()),
+            aspect: Aspect::Heading(UP),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ahrs::MagConfig;
+    use crate::attitude::Quaternion;
+
+    fn field(dip_deg: f64) -> Vector3<f64> {
+        let d = dip_deg.to_radians();
+        Vector3::new(0.0, d.cos(), -d.sin()) * 45.0
+    }
+
+    /// A body-fixed offset of 20 µT seen while the body turns through many attitudes: the fit finds it
+    /// to a fraction of a µT and the channel accepts it after the confirmation time; before that the
+    /// field is disturbed and rejected.
+    #[test]
+    fn hard_iron_offset_is_found_and_accepted() {
+        let c = MagConfig::default();
+        let mut ch = FieldChannel::new(45.0, 65f64.to_radians(), &Vector3::y());
+        let offset = Vector3::new(3.0, -20.0, 8.0);
+        let dt = 0.01;
+        let mut q = Quaternion::IDENTITY;
+        let mut accepted_at = None;
+        let mut rejected = 0;
+        for k in 0..6000 {
+            let t = k as f64 * dt;
+            let w = Vector3::new((0.7 * t).sin(), (0.5 * t).cos(), 0.8 * (0.3 * t).sin());
+            q = q.propagate(&w, dt);
+            let a = q.attitude_matrix();
+            // The gyro frame is the reference frame here (a perfect gyro).
+            let m = a * field(65.0) + offset;
+            ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), dt);
+            if let HeadingObservation::Rejected = ch.observation(&c, &m) {
+                rejected += 1;
+            }
+            if accepted_at.is_none() && ch.hard_iron_changes > 0 {
+                accepted_at = Some(t);
+            }
+        }
+        let t = accepted_at.expect("offset accepted");
+        assert!(t < 30.0, "accepted after {t} s");
+        assert!(rejected > 0);
+        assert!((ch.offset() - offset).norm() < 0.5, "{}", ch.offset());
+        assert!(!ch.disturbed());
+    }
+
+    /// The undisturbed field is never disturbed and never changes its offset; a 30 % stronger field
+    /// is disturbed at once and rejected.
+    #[test]
+    fn disturbance_by_norm() {
+        let c = MagConfig::default();
+        let mut ch = FieldChannel::new(45.0, 65f64.to_radians(), &Vector3::y());
+        let a = Quaternion::from_euler_321(0.2, -0.1, 0.5).attitude_matrix();
+        for _ in 0..500 {
+            ch.update(&c, &(a * field(65.0)), &(a * UP), &UP, &a, 0.0, 0.01);
+            assert!(!ch.disturbed());
+            assert!(matches!(
+                ch.observation(&c, &(a * field(65.0))),
+                HeadingObservation::Use(_) | HeadingObservation::NotDue
+            ));
+        }
+        assert_eq!(ch.offset(), Vector3::zeros());
+        for _ in 0..100 {
+            ch.update(&c, &(a * field(65.0) * 1.3), &(a * UP), &UP, &a, 0.0, 0.01);
+        }
+        assert!(ch.disturbed());
+        assert_eq!(
+            ch.observation(&c, &(a * field(65.0) * 1.3)),
+            HeadingObservation::Rejected
+        );
+    }
+}

@@ -1,0 +1,762 @@
+//! Attitude from raw IMU samples (gyro, accelerometer, optional magnetometer): the sensor models of a
+//! real vehicle between the samples a user sends and the filter behind [`AttitudeFilter`].
+//!
+//! A user sends `{t, gyr, acc, mag?}` per sample; nothing else. This module turns that stream into
+//! what the filters use, the same way for every filter (MEKF, QPF, USQUE):
+//!
+//! * **Gyro** ([`Ahrs::step`]): the rate of sample `k` covers `(t_{k−1}, t_k]` (the convention of
+//!   IMU drivers and of VQF); the filter propagates over that interval with it.
+//! * **Gyro frame**: the gyro's rotation alone (bias removed, no correction) integrated from the start;
+//!   the accelerometer's low-pass and the hard-iron fit work in it, so that no correction of the filter
+//!   ever feeds back into a measurement.
+//! * **Rest** ([`rest`]): a rest detector; at rest the low-passed gyro is an observation of the gyro
+//!   bias ([`AttitudeFilter::observe_bias`], every `rest.interval_s`), and the accelerometer's
+//!   low-pass is gravity alone.
+//! * **Gravity** ([`gravity`]): the low-passed specific force as a tilt-only observation with a σ that
+//!   follows the motion and counts its correlation.
+//! * **Field** ([`field`]): the magnetometer as a heading-only observation, with disturbance
+//!   detection, a bounded rejection, a new field accepted after sustained consistent readings, and a
+//!   body-fixed (hard-iron) offset estimated and accepted when the readings prove it.
+//! * **Honesty** ([`Ahrs::step`]): a variance floor for the tilt and the heading (errors of the sensors
+//!   themselves that no averaging removes: accelerometer misalignment, field inhomogeneity), and a
+//!   re-acquisition when a channel's innovations stay inconsistent with the filter's covariance for
+//!   `recovery.after_s` (the covariance is widened so the filter can follow the sensor again; counted).
+//!
+//! The reference frame is East-North-Up with magnetic north: up is where gravity points away from, and
+//! north is the horizontal direction of the field at the alignment (without a magnetometer, the body's
+//! heading at the alignment). Numeric core: no I/O; every state is plain data (a checkpoint holds it).
+
+pub mod field;
+pub mod gravity;
+pub mod lowpass;
+pub mod rest;
+
+use crate::attitude::{skew, Quaternion};
+use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
+use crate::sensors::imu::{heading_basis, heading_jacobian, heading_residual};
+pub use crate::sensors::ImuSample;
+use crate::sensors::{Measurement, ObservationSet, VectorObservation};
+use field::{FieldChannel, HeadingObservation};
+use gravity::{GravityChannel, TiltObservation};
+use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
+use rest::RestDetector;
+
+const DEG: f64 = std::f64::consts::PI / 180.0;
+
+/// Everything the pipeline assumes about the sensors (`service.imu` of the configuration;
+/// `config/imu.json5` is the preset). The gyro noise itself is the filter's (`service.filter`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AhrsConfig {
+    pub init: InitConfig,
+    pub rest: RestConfig,
+    pub acc: AccConfig,
+    pub mag: MagConfig,
+    pub recovery: RecoveryConfig,
+}
+
+/// The alignment: the attitude from the first samples.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitConfig {
+    /// Samples are averaged over this long before the filter starts, s (0: the first sample).
+    pub duration_s: f64,
+    /// Initial 1σ of the tilt and of the heading, rad.
+    pub tilt_sigma_rad: f64,
+    pub heading_sigma_rad: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestConfig {
+    pub enabled: bool,
+    pub lowpass_s: f64,
+    pub gyr_limit_rad_s: f64,
+    pub acc_limit_m_s2: f64,
+    pub bias_limit_rad_s: f64,
+    pub min_duration_s: f64,
+    /// The bias observation at rest: its interval and its 1σ per axis, rad/s.
+    pub interval_s: f64,
+    pub bias_sigma_rad_s: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AccConfig {
+    /// Time constant of the low-pass in the gyro frame, s.
+    pub lowpass_s: f64,
+    /// Interval of the tilt updates, s, and the time over which the low-passed direction's error is
+    /// correlated, s (each update counts `interval_s / correlation_s` of an independent one).
+    pub interval_s: f64,
+    pub correlation_s: f64,
+    /// `σ₀`: the direction's 1σ without motion (accelerometer misalignment and bias), rad.
+    pub sigma_rad: f64,
+    /// `κ`: the motion error is `κ d_rms / g` rad (see [`gravity`]).
+    pub motion_gain: f64,
+    /// The direction's 1σ at rest, rad.
+    pub rest_sigma_rad: f64,
+    /// Largest relative deviation of the low-passed norm from gravity's for an update.
+    pub norm_gate: f64,
+    /// Least 1σ of the tilt per horizontal axis (what no averaging removes), rad.
+    pub floor_rad: f64,
+    /// The tilt's 1σ is also kept at least `floor_lp_factor · σ_lp`: an estimate that follows the
+    /// low-passed direction has that direction's error, however many updates it took.
+    pub floor_lp_factor: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MagConfig {
+    pub enabled: bool,
+    /// Low-pass of the norm and dip judged for disturbances, s.
+    pub lowpass_s: f64,
+    pub norm_limit: f64,
+    pub dip_limit_rad: f64,
+    pub min_undisturbed_s: f64,
+    pub max_rejection_s: f64,
+    pub rejection_factor: f64,
+    /// Adaptation of the reference's norm and dip while undisturbed, s.
+    pub reference_s: f64,
+    pub new_field_s: f64,
+    pub new_field_min_rate_rad_s: f64,
+    /// Interval of the heading updates, s; the heading error's 1σ (rad) and correlation time (s).
+    pub interval_s: f64,
+    pub sigma_rad: f64,
+    pub correlation_s: f64,
+    /// Least 1σ of the heading, rad.
+    pub floor_rad: f64,
+    /// How much later than the gyro the magnetometer samples the field, s: each reading is turned
+    /// forward by the rotation over that time, `m + δ (ω × m)` (a lag of a few milliseconds, from the
+    /// magnetometer's own filtering, is a heading error of `δ ‖ω‖` in fast turns).
+    pub delay_s: f64,
+    pub hard_iron: HardIronConfig,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HardIronConfig {
+    pub enabled: bool,
+    /// Forgetting time of the fit, s; solved every `solve_interval_s`; accepted after `confirm_s`.
+    pub window_s: f64,
+    pub solve_interval_s: f64,
+    pub confirm_s: f64,
+    /// Acceptance, as fractions of the reference norm: the offset's largest 1σ, the RMS residual per
+    /// axis (over the window and over the last `recent_s`), the least change of the offset.
+    pub max_offset_sigma: f64,
+    pub max_residual: f64,
+    pub recent_s: f64,
+    pub min_change: f64,
+    /// The accepted offset's RMS residual over the window must exceed the new fit's by this factor.
+    pub min_improvement: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecoveryConfig {
+    /// Normalised innovation squared above which a tilt (2 dof) or heading (1 dof) update is
+    /// inconsistent, and how long in a row that must last before the covariance is widened.
+    pub tilt_nis: f64,
+    pub heading_nis: f64,
+    pub after_s: f64,
+    /// The 1σ the tilt or heading is widened to, rad.
+    pub tilt_sigma_rad: f64,
+    pub heading_sigma_rad: f64,
+}
+
+impl Default for InitConfig {
+    fn default() -> Self {
+        InitConfig {
+            duration_s: 0.1,
+            tilt_sigma_rad: 2.0 * DEG,
+            heading_sigma_rad: 2.0 * DEG,
+        }
+    }
+}
+
+impl Default for RestConfig {
+    fn default() -> Self {
+        RestConfig {
+            enabled: true,
+            lowpass_s: 0.5,
+            gyr_limit_rad_s: 2.0 * DEG,
+            acc_limit_m_s2: 0.5,
+            bias_limit_rad_s: 2.0 * DEG,
+            min_duration_s: 1.5,
+            interval_s: 1.0,
+            bias_sigma_rad_s: 0.03 * DEG,
+        }
+    }
+}
+
+impl Default for AccConfig {
+    fn default() -> Self {
+        AccConfig {
+            lowpass_s: 3.0,
+            interval_s: 0.1,
+            correlation_s: 6.0,
+            sigma_rad: 0.2 * DEG,
+            motion_gain: 1.5,
+            rest_sigma_rad: 0.1 * DEG,
+            norm_gate: 0.25,
+            floor_rad: 0.1 * DEG,
+            floor_lp_factor: 1.0,
+        }
+    }
+}
+
+impl Default for MagConfig {
+    fn default() -> Self {
+        MagConfig {
+            enabled: true,
+            lowpass_s: 0.05,
+            norm_limit: 0.1,
+            dip_limit_rad: 10.0 * DEG,
+            min_undisturbed_s: 0.5,
+            max_rejection_s: 60.0,
+            rejection_factor: 2.0,
+            reference_s: 20.0,
+            new_field_s: 20.0,
+            new_field_min_rate_rad_s: 20.0 * DEG,
+            interval_s: 0.1,
+            sigma_rad: 1.0 * DEG,
+            correlation_s: 5.0,
+            floor_rad: 0.3 * DEG,
+            delay_s: 0.0,
+            hard_iron: HardIronConfig::default(),
+        }
+    }
+}
+
+impl Default for HardIronConfig {
+    fn default() -> Self {
+        HardIronConfig {
+            enabled: true,
+            window_s: 20.0,
+            solve_interval_s: 0.1,
+            confirm_s: 3.0,
+            max_offset_sigma: 0.02,
+            max_residual: 0.08,
+            recent_s: 2.0,
+            min_change: 0.05,
+            min_improvement: 1.5,
+        }
+    }
+}
+
+impl Default for RecoveryConfig {
+    fn default() -> Self {
+        RecoveryConfig {
+            tilt_nis: 13.8,
+            heading_nis: 10.8,
+            after_s: 3.0,
+            tilt_sigma_rad: 5.0 * DEG,
+            heading_sigma_rad: 10.0 * DEG,
+        }
+    }
+}
+
+impl AhrsConfig {
+    /// Checks every value; the message names the field (`service.imu.` + the path).
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |v: f64, name: &str| {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} must be positive and finite, got {v}"))
+            }
+        };
+        let nonneg = |v: f64, name: &str| {
+            if v >= 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} must be non-negative and finite, got {v}"))
+            }
+        };
+        let i = &self.init;
+        nonneg(i.duration_s, "init.duration_s")?;
+        positive(i.tilt_sigma_rad, "init.tilt_sigma_rad")?;
+        positive(i.heading_sigma_rad, "init.heading_sigma_rad")?;
+        let r = &self.rest;
+        nonneg(r.lowpass_s, "rest.lowpass_s")?;
+        positive(r.gyr_limit_rad_s, "rest.gyr_limit_rad_s")?;
+        positive(r.acc_limit_m_s2, "rest.acc_limit_m_s2")?;
+        positive(r.bias_limit_rad_s, "rest.bias_limit_rad_s")?;
+        nonneg(r.min_duration_s, "rest.min_duration_s")?;
+        positive(r.interval_s, "rest.interval_s")?;
+        positive(r.bias_sigma_rad_s, "rest.bias_sigma_rad_s")?;
+        let a = &self.acc;
+        positive(a.lowpass_s, "acc.lowpass_s")?;
+        positive(a.interval_s, "acc.interval_s")?;
+        positive(a.correlation_s, "acc.correlation_s")?;
+        positive(a.sigma_rad, "acc.sigma_rad")?;
+        nonneg(a.motion_gain, "acc.motion_gain")?;
+        positive(a.rest_sigma_rad, "acc.rest_sigma_rad")?;
+        positive(a.norm_gate, "acc.norm_gate")?;
+        nonneg(a.floor_rad, "acc.floor_rad")?;
+        nonneg(a.floor_lp_factor, "acc.floor_lp_factor")?;
+        let m = &self.mag;
+        nonneg(m.lowpass_s, "mag.lowpass_s")?;
+        positive(m.norm_limit, "mag.norm_limit")?;
+        positive(m.dip_limit_rad, "mag.dip_limit_rad")?;
+        nonneg(m.min_undisturbed_s, "mag.min_undisturbed_s")?;
+        nonneg(m.max_rejection_s, "mag.max_rejection_s")?;
+        if !(m.rejection_factor >= 1.0 && m.rejection_factor.is_finite()) {
+            return Err(format!(
+                "mag.rejection_factor must be at least 1, got {}",
+                m.rejection_factor
+            ));
+        }
+        positive(m.reference_s, "mag.reference_s")?;
+        nonneg(m.new_field_s, "mag.new_field_s")?;
+        nonneg(m.new_field_min_rate_rad_s, "mag.new_field_min_rate_rad_s")?;
+        positive(m.interval_s, "mag.interval_s")?;
+        positive(m.sigma_rad, "mag.sigma_rad")?;
+        positive(m.correlation_s, "mag.correlation_s")?;
+        nonneg(m.floor_rad, "mag.floor_rad")?;
+        if !(m.delay_s.abs() <= 1.0) {
+            return Err(format!(
+                "mag.delay_s must be within ±1 s, got {}",
+                m.delay_s
+            ));
+        }
+        let h = &m.hard_iron;
+        positive(h.window_s, "mag.hard_iron.window_s")?;
+        positive(h.solve_interval_s, "mag.hard_iron.solve_interval_s")?;
+        nonneg(h.confirm_s, "mag.hard_iron.confirm_s")?;
+        positive(h.max_offset_sigma, "mag.hard_iron.max_offset_sigma")?;
+        positive(h.max_residual, "mag.hard_iron.max_residual")?;
+        positive(h.recent_s, "mag.hard_iron.recent_s")?;
+        nonneg(h.min_change, "mag.hard_iron.min_change")?;
+        if !(h.min_improvement >= 1.0 && h.min_improvement.is_finite()) {
+            return Err(format!(
+                "mag.hard_iron.min_improvement must be at least 1, got {}",
+                h.min_improvement
+            ));
+        }
+        let c = &self.recovery;
+        positive(c.tilt_nis, "recovery.tilt_nis")?;
+        positive(c.heading_nis, "recovery.heading_nis")?;
+        positive(c.after_s, "recovery.after_s")?;
+        positive(c.tilt_sigma_rad, "recovery.tilt_sigma_rad")?;
+        positive(c.heading_sigma_rad, "recovery.heading_sigma_rad")?;
+        Ok(())
+    }
+}
+
+/// What the pipeline has done so far and what it sees now (published with every estimate).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AhrsCounts {
+    pub samples: u64,
+    pub at_rest: bool,
+    pub rest_samples: u64,
+    pub bias_updates: u64,
+    pub tilt_updates: u64,
+    pub tilt_gated: u64,
+    pub heading_updates: u64,
+    pub mag_disturbed: bool,
+    pub mag_rejected: u64,
+    pub mag_new_fields: u64,
+    pub mag_hard_iron_changes: u64,
+    pub tilt_reacquisitions: u64,
+    pub heading_reacquisitions: u64,
+    /// The 1σ of the low-passed gravity direction now, rad.
+    pub tilt_sigma_lp_rad: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+enum Phase {
+    /// Collecting the alignment: sums since `t0_s`.
+    Aligning {
+        t0_s: f64,
+        acc: Vector3<f64>,
+        mag: Vector3<f64>,
+        n_acc: u32,
+        n_mag: u32,
+    },
+    Running,
+}
+
+/// The pipeline's state for one vehicle.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Ahrs {
+    phase: Phase,
+    /// The last sample's time.
+    t_s: Option<f64>,
+    /// The gyro frame: the attitude (gyro frame → body) integrated from the gyro alone.
+    q_gyro: Quaternion,
+    rest: RestDetector,
+    gravity: GravityChannel,
+    field: Option<FieldChannel>,
+    since_bias_s: f64,
+    tilt_inconsistent_s: f64,
+    heading_inconsistent_s: f64,
+    counts: AhrsCounts,
+}
+
+impl Ahrs {
+    pub fn new(c: &AhrsConfig) -> Self {
+        Ahrs {
+            phase: Phase::Aligning {
+                t0_s: f64::NAN,
+                acc: Vector3::zeros(),
+                mag: Vector3::zeros(),
+                n_acc: 0,
+                n_mag: 0,
+            },
+            t_s: None,
+            q_gyro: Quaternion::IDENTITY,
+            rest: RestDetector::new(&c.rest),
+            gravity: GravityChannel::new(&c.acc, 9.81),
+            field: None,
+            since_bias_s: 0.0,
+            tilt_inconsistent_s: 0.0,
+            heading_inconsistent_s: 0.0,
+            counts: AhrsCounts::default(),
+        }
+    }
+
+    /// The time of the last sample taken.
+    pub fn time_s(&self) -> Option<f64> {
+        self.t_s
+    }
+
+    pub fn counts(&self) -> &AhrsCounts {
+        &self.counts
+    }
+
+    /// The field channel's reference (unit direction in the reference frame, norm, dip) and offset.
+    pub fn field_reference(&self) -> Option<((Vector3<f64>, f64, f64), Vector3<f64>)> {
+        self.field.as_ref().map(|f| (f.reference(), f.offset()))
+    }
+
+    /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
+    /// Returns the interval since the previous sample.
+    fn preprocess(&mut self, c: &AhrsConfig, s: &ImuSample, bias: &Vector3<f64>) -> f64 {
+        let dt = match self.t_s {
+            Some(t) => (s.t_s - t).max(0.0),
+            None => 0.0,
+        };
+        self.t_s = Some(s.t_s);
+        self.counts.samples += 1;
+        if dt > 0.0 {
+            self.q_gyro = self
+                .q_gyro
+                .propagate(&(s.gyr_rad_s - bias), dt)
+                .normalized()
+                .unwrap_or(self.q_gyro);
+        }
+        let at_rest = c.rest.enabled && self.rest.update(&c.rest, &s.gyr_rad_s, &s.acc_m_s2, dt);
+        self.counts.at_rest = at_rest;
+        if at_rest {
+            self.counts.rest_samples += 1;
+        }
+        let a_gyro = self.q_gyro.attitude_matrix();
+        self.gravity
+            .update(&c.acc, &s.acc_m_s2, &a_gyro, dt, at_rest);
+        dt
+    }
+
+    /// Takes a sample while no filter runs. Once `init.duration_s` of samples is collected, returns
+    /// the initial state of the filter (attitude from the mean accelerometer and magnetometer; bias 0
+    /// with `bias_sigma_rad_s`); the caller starts the filter with it at the sample's time and then
+    /// hands every later sample to [`Ahrs::step`]. Restarts the alignment if a filter ran before.
+    pub fn align(
+        &mut self,
+        c: &AhrsConfig,
+        s: &ImuSample,
+        bias_sigma_rad_s: &Vector3<f64>,
+    ) -> Option<InitialState> {
+        if self.phase == Phase::Running {
+            *self = Ahrs::new(c);
+        }
+        self.preprocess(c, s, &Vector3::zeros());
+        let Phase::Aligning {
+            t0_s,
+            acc,
+            mag,
+            n_acc,
+            n_mag,
+        } = &mut self.phase
+        else {
+            return None;
+        };
+        if t0_s.is_nan() {
+            *t0_s = s.t_s;
+        }
+        *acc += s.acc_m_s2;
+        *n_acc += 1;
+        if let Some(m) = s.mag.filter(|_| c.mag.enabled) {
+            *mag += m;
+            *n_mag += 1;
+        }
+        if s.t_s - *t0_s + 1e-9 < c.init.duration_s {
+            return None;
+        }
+        let acc = *acc / f64::from(*n_acc);
+        let mag = (*n_mag > 0).then(|| *mag / f64::from(*n_mag));
+        let up_b = acc.try_normalize(1e-9)?;
+        // North: the horizontal part of the field; without one, the body's x (or y) axis.
+        let horizontal = |v: &Vector3<f64>| (v - up_b * v.dot(&up_b)).try_normalize(1e-6);
+        let from_mag = mag.as_ref().and_then(horizontal);
+        let north_b = from_mag
+            .or_else(|| horizontal(&Vector3::x()))
+            .or_else(|| horizontal(&Vector3::y()))?;
+        let east_b = north_b.cross(&up_b);
+        // A (reference → body) has the body-frame images of east, north, up as columns.
+        let a = Matrix3::from_columns(&[east_b, north_b, up_b]);
+        let q = Quaternion::from_attitude_matrix(&a).normalized()?;
+        self.gravity = GravityChannel::new(&c.acc, acc.norm());
+        // Replays the alignment window's gravity low-pass from its mean (the frames agree at the
+        // start: the gyro frame is re-anchored on the aligned attitude).
+        self.q_gyro = q;
+        let a_gyro = q.attitude_matrix();
+        self.gravity.update(&c.acc, &acc, &a_gyro, 0.0, false);
+        if let (Some(m), true) = (mag, from_mag.is_some()) {
+            let n = m.norm();
+            let dip = crate::sensors::imu::dip_rad(&(m / n), &up_b);
+            self.field = Some(FieldChannel::new(n, dip, &Vector3::y()));
+        }
+        self.phase = Phase::Running;
+        // Initial covariance: tilt and heading σ in the reference frame, rotated into the body.
+        let pe = Matrix3::from_diagonal(&Vector3::new(
+            c.init.tilt_sigma_rad.powi(2),
+            c.init.tilt_sigma_rad.powi(2),
+            c.init.heading_sigma_rad.powi(2),
+        ));
+        let pb = a * pe * a.transpose();
+        let mut p = Matrix6::zeros();
+        p.fixed_view_mut::<3, 3>(0, 0).copy_from(&pb);
+        for i in 0..3 {
+            p[(i + 3, i + 3)] = bias_sigma_rad_s[i].powi(2);
+        }
+        crate::filters::symmetrize(&mut p);
+        Some(InitialState {
+            t_s: Some(s.t_s),
+            q,
+            sigma_att_rad: Vector3::new(pb[(0, 0)].sqrt(), pb[(1, 1)].sqrt(), pb[(2, 2)].sqrt()),
+            bias_rad_s: Vector3::zeros(),
+            bias_sigma_rad_s: *bias_sigma_rad_s,
+            uniform_attitude: false,
+            covariance: Some(p),
+        })
+    }
+
+    /// Takes a sample with a running filter: propagation over `(t_prev, t]` with the sample's rate,
+    /// then the bias at rest, the tilt and the heading as they fall due, each followed by the honesty
+    /// checks. A refused filter step leaves the filter as it was (the [`AttitudeFilter`] contract) and
+    /// ends the step with its error.
+    pub fn step(
+        &mut self,
+        c: &AhrsConfig,
+        s: &ImuSample,
+        filter: &mut dyn AttitudeFilter,
+    ) -> Result<(), FilterError> {
+        if self.phase != Phase::Running {
+            // A filter started otherwise (a reset with an attitude, a fleet takeover): the pipeline
+            // adopts its estimate as the gyro frame's start and learns the field from the next
+            // reading, expressed with that estimate.
+            let e = filter.estimate();
+            self.q_gyro = e.q;
+            self.gravity = GravityChannel::new(&c.acc, s.acc_m_s2.norm().max(1e-6));
+            self.field = None;
+            self.phase = Phase::Running;
+        }
+        let t_prev = self.t_s.unwrap_or(s.t_s);
+        let bias = filter.bias_rad_s();
+        let dt = self.preprocess(c, s, &bias);
+        // The rate over (t_prev, t]: held from t_prev, then the filter moves to t.
+        filter.process(&Measurement::Gyro(crate::sensors::GyroSample {
+            t_s: t_prev,
+            omega_body_rad_s: s.gyr_rad_s,
+        }))?;
+        filter.advance_to(s.t_s)?;
+        let at_rest = self.counts.at_rest;
+        let a_gyro = self.q_gyro.attitude_matrix();
+        // Bias at rest.
+        self.since_bias_s += dt;
+        if at_rest && self.since_bias_s + 1e-9 >= c.rest.interval_s {
+            self.since_bias_s = 0.0;
+            filter.observe_bias(s.t_s, &self.rest.gyr_lowpass(), c.rest.bias_sigma_rad_s)?;
+            self.counts.bias_updates += 1;
+        }
+        // Tilt.
+        match self.gravity.observation(&c.acc, &a_gyro, at_rest) {
+            TiltObservation::NotDue => {}
+            TiltObservation::NormGated => self.counts.tilt_gated += 1,
+            TiltObservation::Use(o) => {
+                self.counts.tilt_sigma_lp_rad = self.gravity.last_sigma_lp();
+                let prior = filter.estimate();
+                // Consistency of the low-passed direction itself (its own σ, not the σ that spreads
+                // its information over the correlation time).
+                let nis = tilt_nis(&prior, &o, self.gravity.last_sigma_lp());
+                self.tilt_inconsistent_s = if nis > c.recovery.tilt_nis {
+                    self.tilt_inconsistent_s + c.acc.interval_s
+                } else {
+                    0.0
+                };
+                update(filter, s.t_s, o)?;
+                self.counts.tilt_updates += 1;
+                let post = filter.estimate();
+                if self.tilt_inconsistent_s >= c.recovery.after_s {
+                    self.tilt_inconsistent_s = 0.0;
+                    self.counts.tilt_reacquisitions += 1;
+                    floor(filter, &post, Axes::Tilt, c.recovery.tilt_sigma_rad)?;
+                } else {
+                    let lp = c.acc.floor_lp_factor * self.gravity.last_sigma_lp();
+                    floor(filter, &post, Axes::Tilt, c.acc.floor_rad.max(lp))?;
+                }
+            }
+        }
+        // Heading. A vehicle aligned without a field learns it from its first reading.
+        if let (Some(mag), None, true) = (s.mag, &self.field, c.mag.enabled) {
+            self.field = learn_field(&filter.estimate(), &mag);
+        }
+        let mag = s.mag.map(|m| {
+            // Turned forward over the magnetometer's delay: the body turned by ω δ since it sampled.
+            let omega = s.gyr_rad_s - bias;
+            m + omega.cross(&m) * c.mag.delay_s
+        });
+        if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
+            if let (Some(up_b), Some(up_g)) =
+                (self.gravity.up_body(&a_gyro), self.gravity.up_gyro())
+            {
+                let rate = self.rest.gyr_lowpass() - bias;
+                field.update(&c.mag, &mag, &up_b, &up_g, &a_gyro, rate.norm(), dt);
+            }
+            self.counts.mag_disturbed = field.disturbed();
+            self.counts.mag_new_fields = field.new_fields;
+            self.counts.mag_hard_iron_changes = field.hard_iron_changes;
+            match field.observation(&c.mag, &mag) {
+                HeadingObservation::NotDue => {}
+                HeadingObservation::Rejected => self.counts.mag_rejected += 1,
+                HeadingObservation::Use(o) => {
+                    let prior = filter.estimate();
+                    let nis = heading_nis(&prior, &o);
+                    self.heading_inconsistent_s = if nis > c.recovery.heading_nis {
+                        self.heading_inconsistent_s + c.mag.interval_s
+                    } else {
+                        0.0
+                    };
+                    update(filter, s.t_s, o)?;
+                    self.counts.heading_updates += 1;
+                    let post = filter.estimate();
+                    if self.heading_inconsistent_s >= c.recovery.after_s {
+                        self.heading_inconsistent_s = 0.0;
+                        self.counts.heading_reacquisitions += 1;
+                        floor(filter, &post, Axes::Heading, c.recovery.heading_sigma_rad)?;
+                    } else {
+                        floor(filter, &post, Axes::Heading, c.mag.floor_rad)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A field channel whose reference is the reading `mag` seen from the estimate `e`: its norm, its dip
+/// and, as north, its horizontal direction in the reference frame.
+fn learn_field(e: &Estimate, mag: &Vector3<f64>) -> Option<FieldChannel> {
+    let a = e.q.attitude_matrix();
+    let r = (a.transpose() * mag).try_normalize(1e-12)?;
+    let dip = crate::sensors::imu::dip_rad(&r, &gravity::UP);
+    let north = r - gravity::UP * r.dot(&gravity::UP);
+    (north.norm() > 1e-6).then(|| FieldChannel::new(mag.norm(), dip, &north))
+}
+
+fn update(
+    filter: &mut dyn AttitudeFilter,
+    t_s: f64,
+    o: VectorObservation,
+) -> Result<(), FilterError> {
+    filter.process(&Measurement::Vectors(ObservationSet {
+        t_s,
+        observations: vec![o],
+    }))
+}
+
+/// `νᵀ S⁻¹ ν` of a tilt observation about the estimate `e` with the observation's 1σ `sigma`:
+/// `ν = b − Â r`, `S = [b̂×] P_α [b̂×]ᵀ + σ² I` (the MEKF's measurement model; the same for every
+/// filter).
+fn tilt_nis(e: &Estimate, o: &VectorObservation, sigma: f64) -> f64 {
+    let a = e.q.attitude_matrix();
+    let predicted = a * o.reference;
+    let h = skew(&predicted);
+    let p: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+    let s = h * p * h.transpose() + Matrix3::identity() * (sigma * sigma);
+    let nu = o.body - predicted;
+    s.cholesky().map_or(0.0, |c| nu.dot(&c.solve(&nu)))
+}
+
+/// `y²/S` of a heading observation about the estimate `e`: `y = −ψ(Â)`, `S = hᵀ P_α h + σ_ψ²`.
+fn heading_nis(e: &Estimate, o: &VectorObservation) -> f64 {
+    let Some(up) = o.aspect.heading_axis() else {
+        return 0.0;
+    };
+    let Some((e1, e2, horizontal)) = heading_basis(&o.reference, up) else {
+        return 0.0;
+    };
+    let a = e.q.attitude_matrix();
+    let h = heading_jacobian(&a, &o.reference, &e2, horizontal);
+    let y = -heading_residual(&a, &o.body, &e1, &e2);
+    let p: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+    let sigma = o.sigma / horizontal;
+    let s = h.dot(&(p * h)) + sigma * sigma;
+    if s > 0.0 {
+        y * y / s
+    } else {
+        0.0
+    }
+}
+
+/// Which part of the attitude error a floor applies to, in the reference frame.
+#[derive(Clone, Copy)]
+enum Axes {
+    /// The horizontal axes (east, north): the tilt.
+    Tilt,
+    /// The vertical: the heading.
+    Heading,
+}
+
+/// Widens the attitude covariance of `e` so that its reference-frame tilt (or heading) 1σ is at least
+/// `sigma_rad` on every axis of that part (`P_ref = Âᵀ P Â`).
+fn floor(
+    filter: &mut dyn AttitudeFilter,
+    e: &Estimate,
+    axes: Axes,
+    sigma_rad: f64,
+) -> Result<(), FilterError> {
+    if !(sigma_rad > 0.0) {
+        return Ok(());
+    }
+    let a = e.q.attitude_matrix();
+    let p: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+    let pe = a.transpose() * p * a;
+    let floor2 = sigma_rad * sigma_rad;
+    let mut add = Matrix3::zeros();
+    match axes {
+        Axes::Tilt => {
+            let block = Matrix2::new(pe[(0, 0)], pe[(0, 1)], pe[(1, 0)], pe[(1, 1)]);
+            let eig = block.symmetric_eigen();
+            for k in 0..2 {
+                let lack = floor2 - eig.eigenvalues[k];
+                if lack > 0.0 {
+                    let v = eig.eigenvectors.column(k);
+                    let v3 = Vector3::new(v[0], v[1], 0.0);
+                    add += v3 * v3.transpose() * lack;
+                }
+            }
+        }
+        Axes::Heading => {
+            let lack = floor2 - pe[(2, 2)];
+            if lack > 0.0 {
+                add[(2, 2)] = lack;
+            }
+        }
+    }
+    if add.amax() > 0.0 {
+        let body = a * add * a.transpose();
+        filter.inflate_attitude(&((body + body.transpose()) * 0.5))?;
+    }
+    Ok(())
+}

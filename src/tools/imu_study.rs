@@ -1,0 +1,437 @@
+//! `attitude-service imu-study`: recorded IMU trials through the vehicle pipeline of the service, in
+//! one process, scored against their truth ([`crate::study::broad`]).
+//!
+//! Every sample goes through [`VehicleState`], the very state machine a `serve` vehicle runs (time
+//! checks, the raw-IMU sensor models of [`crate::ahrs`], the filter, health), with the configuration
+//! read from a file (`config/imu.json5` by default) and optionally changed field by field
+//! (`--set service.imu.acc.motion_gain=1.5`). Nothing of the pipeline is repeated here: a study and a
+//! tuning measure what the service does.
+//!
+//! **Trial file** (`scripts/broad-export.py` writes it from a BROAD HDF5 file), little-endian `f64`:
+//! a header `[n, rate_hz, 15]`, then per sample
+//! `[t, gx, gy, gz, ax, ay, az, mx, my, mz, qw, qx, qy, qz, movement]` (s, rad/s, m/s², any unit; the
+//! truth as the Hamilton quaternion of body → East-North-Up, NaN where unknown; movement 1/0).
+
+use crate::attitude::Quaternion;
+use crate::filters::FilterSpec;
+use crate::sensors::{ImuSample, Measurement};
+use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
+use crate::service::vehicle::{Event, VehicleState};
+use crate::study::broad::{score, Sample, Scores};
+use crate::wire::ImuDiagnosticsMsg;
+use nalgebra::{Matrix3, Vector3};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use thiserror::Error;
+
+/// Values per sample of a trial file.
+pub const COLUMNS: usize = 15;
+
+#[derive(Debug, Error)]
+pub enum StudyError {
+    #[error("{path}: {message}")]
+    Io { path: String, message: String },
+    #[error("{path}: malformed trial file: {message}")]
+    Format { path: String, message: String },
+    #[error("configuration: {0}")]
+    Config(String),
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// A recorded trial: the samples, and per sample the truth (if known) and whether it is scored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trial {
+    pub name: String,
+    pub rate_hz: f64,
+    pub samples: Vec<ImuSample>,
+    pub truth: Vec<Option<Quaternion>>,
+    pub movement: Vec<bool>,
+}
+
+/// Parses a trial file's bytes (see the module documentation).
+pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
+    if bytes.len() % 8 != 0 || bytes.len() < 24 {
+        return Err(format!(
+            "{} bytes is not a header of three f64 and rows",
+            bytes.len()
+        ));
+    }
+    let v: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("chunks of 8")))
+        .collect();
+    let (n, rate, cols) = (v[0], v[1], v[2]);
+    if cols != COLUMNS as f64 {
+        return Err(format!("{cols} columns, expected {COLUMNS}"));
+    }
+    if !(n >= 1.0 && n.fract() == 0.0) || !(rate > 0.0 && rate.is_finite()) {
+        return Err(format!("bad header: n = {n}, rate = {rate}"));
+    }
+    let n = n as usize;
+    let body = &v[3..];
+    if body.len() != n * COLUMNS {
+        return Err(format!(
+            "header says {n} samples but the file holds {} values",
+            body.len()
+        ));
+    }
+    let mut trial = Trial {
+        name: name.to_string(),
+        rate_hz: rate,
+        samples: Vec::with_capacity(n),
+        truth: Vec::with_capacity(n),
+        movement: Vec::with_capacity(n),
+    };
+    for (k, r) in body.chunks_exact(COLUMNS).enumerate() {
+        if !r[..10].iter().all(|x| x.is_finite()) {
+            return Err(format!("sample {k}: non-finite IMU values"));
+        }
+        let mag = Vector3::new(r[7], r[8], r[9]);
+        trial.samples.push(ImuSample {
+            t_s: r[0],
+            gyr_rad_s: Vector3::new(r[1], r[2], r[3]),
+            acc_m_s2: Vector3::new(r[4], r[5], r[6]),
+            mag: (mag != Vector3::zeros()).then_some(mag),
+        });
+        // Hamilton [w, x, y, z] of body → reference: this project's components (x, y, z, w).
+        let q = Quaternion::new(r[11], r[12], r[13], r[10]);
+        trial
+            .truth
+            .push(q.is_finite().then(|| q.normalized()).flatten());
+        trial.movement.push(r[14] != 0.0);
+    }
+    Ok(trial)
+}
+
+/// Reads a trial file; its name is the file stem.
+pub fn read_trial(path: &Path) -> Result<Trial, StudyError> {
+    let bytes = std::fs::read(path).map_err(|e| StudyError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    parse_trial(&name, &bytes).map_err(|message| StudyError::Format {
+        path: path.display().to_string(),
+        message,
+    })
+}
+
+/// The bytes of a trial file (tests; the exporter writes the same with numpy).
+pub fn trial_to_bytes(t: &Trial) -> Vec<u8> {
+    let mut out = Vec::with_capacity(8 * (3 + COLUMNS * t.samples.len()));
+    let mut put = |x: f64| out.extend_from_slice(&x.to_le_bytes());
+    put(t.samples.len() as f64);
+    put(t.rate_hz);
+    put(COLUMNS as f64);
+    for (k, s) in t.samples.iter().enumerate() {
+        put(s.t_s);
+        s.gyr_rad_s.iter().for_each(|x| put(*x));
+        s.acc_m_s2.iter().for_each(|x| put(*x));
+        s.mag
+            .unwrap_or_else(Vector3::zeros)
+            .iter()
+            .for_each(|x| put(*x));
+        match t.truth.get(k).copied().flatten() {
+            Some(q) => [q.w, q.x, q.y, q.z].iter().for_each(|x| put(*x)),
+            None => (0..4).for_each(|_| put(f64::NAN)),
+        }
+        put(if t.movement.get(k).copied().unwrap_or(false) {
+            1.0
+        } else {
+            0.0
+        });
+    }
+    out
+}
+
+/// What a vehicle of the study runs: the filter configuration and the policy of a service.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    pub filter: VehicleFilterConfig,
+    pub policy: Policy,
+}
+
+impl Setup {
+    /// The default filter of `service`, or `spec` (and `particles`) instead.
+    pub fn new(
+        service: &ServiceConfig,
+        spec: Option<FilterSpec>,
+        particles: Option<usize>,
+    ) -> Self {
+        let mut filter = service.default_filter.clone();
+        if let Some(s) = spec {
+            filter.filter.spec = s;
+        }
+        if let Some(n) = particles {
+            filter.filter.particles = n;
+        }
+        Setup {
+            filter,
+            policy: service.policy.clone(),
+        }
+    }
+}
+
+/// One trial through one vehicle.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// The estimate published at each sample's time (None where none was).
+    pub estimates: Vec<Option<Sample>>,
+    pub published: usize,
+    pub rejected: BTreeMap<String, u64>,
+    pub seconds: f64,
+    /// The pipeline's diagnostics at the end.
+    pub imu: Option<ImuDiagnosticsMsg>,
+    /// Per sample (where an estimate was published): the pipeline's tilt σ_lp (deg), rest and
+    /// magnetic disturbance flags, and the gyro bias estimate (rad/s).
+    pub series: Vec<Option<SeriesPoint>>,
+}
+
+/// The pipeline's state at one sample (for plots and analysis).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SeriesPoint {
+    pub tilt_sigma_lp_deg: f64,
+    pub at_rest: bool,
+    pub mag_disturbed: bool,
+    pub bias: [f64; 3],
+}
+
+/// Feeds every sample of `trial` into a new [`VehicleState`] as `P/V/imu` inputs (the vehicle id
+/// seeds a particle filter), then flushes it.
+pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
+    let start = Instant::now();
+    let mut state = VehicleState::new(vehicle, setup.filter.clone());
+    let mut events = Vec::new();
+    let mut run = Run {
+        estimates: vec![None; trial.samples.len()],
+        published: 0,
+        rejected: BTreeMap::new(),
+        seconds: 0.0,
+        imu: None,
+        series: vec![None; trial.samples.len()],
+    };
+    let mut next = 0usize;
+    let mut take = |events: &mut Vec<Event>, run: &mut Run| {
+        for e in events.drain(..) {
+            match e {
+                Event::Estimate(msg) => {
+                    run.published += 1;
+                    // Estimates come in time order: find the sample of this time.
+                    while next < trial.samples.len() && trial.samples[next].t_s < msg.t - 1e-9 {
+                        next += 1;
+                    }
+                    if next < trial.samples.len() && (trial.samples[next].t_s - msg.t).abs() <= 1e-9
+                    {
+                        let q = msg.q;
+                        let p = Matrix3::from_fn(|i, j| msg.cov[i][j]);
+                        run.estimates[next] = Some(Sample {
+                            q: Quaternion::new(q.x, q.y, q.z, q.w),
+                            p_att: p,
+                        });
+                        if let Some(d) = &msg.diagnostics.imu {
+                            run.series[next] = Some(SeriesPoint {
+                                tilt_sigma_lp_deg: d.tilt_sigma_lp_deg,
+                                at_rest: d.at_rest,
+                                mag_disturbed: d.mag_disturbed,
+                                bias: msg.bias,
+                            });
+                        }
+                    }
+                    run.imu = msg.diagnostics.imu;
+                }
+                Event::Rejected(_, r) => {
+                    *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
+                }
+                Event::Processed(_) => {}
+            }
+        }
+    };
+    for s in &trial.samples {
+        if let Err(r) = state.on_measurement(Measurement::Imu(*s), 0.0, &setup.policy, &mut events)
+        {
+            *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
+        }
+        take(&mut events, &mut run);
+    }
+    state.flush_all(&setup.policy, &mut events);
+    take(&mut events, &mut run);
+    run.seconds = start.elapsed().as_secs_f64();
+    run
+}
+
+/// Writes a run as CSV, one row per sample: `t, movement, q (w x y z), truth (w x y z), P_att (9),
+/// tilt_sigma_lp_deg, at_rest, mag_disturbed, bias (3)` (empty fields where there is none).
+pub fn series_csv(trial: &Trial, run: &Run) -> String {
+    let mut s = String::from("t,movement,qw,qx,qy,qz,tw,tx,ty,tz,p00,p01,p02,p10,p11,p12,p20,p21,p22,sigma_lp_deg,at_rest,mag_disturbed,bx,by,bz\n");
+    for (k, smp) in trial.samples.iter().enumerate() {
+        s += &format!("{},{}", smp.t_s, u8::from(trial.movement[k]));
+        match &run.estimates[k] {
+            Some(e) => {
+                s += &format!(",{},{},{},{}", e.q.w, e.q.x, e.q.y, e.q.z);
+                match trial.truth[k] {
+                    Some(t) => s += &format!(",{},{},{},{}", t.w, t.x, t.y, t.z),
+                    None => s += ",,,,",
+                }
+                for v in e.p_att.transpose().iter() {
+                    s += &format!(",{v}");
+                }
+            }
+            None => s += &",".repeat(17),
+        }
+        match &run.series[k] {
+            Some(p) => {
+                s += &format!(
+                    ",{},{},{},{},{},{}",
+                    p.tilt_sigma_lp_deg,
+                    u8::from(p.at_rest),
+                    u8::from(p.mag_disturbed),
+                    p.bias[0],
+                    p.bias[1],
+                    p.bias[2]
+                )
+            }
+            None => s += &",".repeat(6),
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// A trial's result.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TrialResult {
+    pub trial: String,
+    pub filter: String,
+    #[serde(flatten)]
+    pub scores: Scores,
+    pub samples: usize,
+    pub published: usize,
+    pub rejected: BTreeMap<String, u64>,
+    pub samples_per_s: f64,
+    pub imu: Option<ImuDiagnosticsMsg>,
+}
+
+/// Runs and scores every trial, on all cores (one trial per thread at a time).
+pub fn study(trials: &[Trial], setup: &Setup, series_dir: Option<&Path>) -> Vec<TrialResult> {
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(trials.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(vec![None; trials.len()]);
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(trial) = trials.get(i) else { break };
+                let run = run_trial(trial, setup, "study");
+                if let Some(dir) = series_dir {
+                    let path = dir.join(format!("{}.csv", trial.name));
+                    if let Err(e) = std::fs::write(&path, series_csv(trial, &run)) {
+                        eprintln!("{}: {e}", path.display());
+                    }
+                }
+                let scores = score(&run.estimates, &trial.truth, &trial.movement);
+                let r = TrialResult {
+                    trial: trial.name.clone(),
+                    filter: setup.filter.filter.spec.to_string(),
+                    scores,
+                    samples: trial.samples.len(),
+                    published: run.published,
+                    rejected: run.rejected,
+                    samples_per_s: trial.samples.len() as f64 / run.seconds.max(1e-9),
+                    imu: run.imu,
+                };
+                results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(r);
+            });
+        }
+    });
+    results
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The trial files named by `paths` (files, or directories whose `*.trial` files are taken, sorted).
+pub fn trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, StudyError> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| StudyError::Io {
+                    path: p.display().to_string(),
+                    message: e.to_string(),
+                })?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "trial"))
+                .collect();
+            found.sort();
+            out.extend(found);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    if out.is_empty() {
+        return Err(StudyError::Usage(
+            "no trial files (export them with scripts/broad-export.py)".into(),
+        ));
+    }
+    Ok(out)
+}
+
+/// A configuration file with `--set PATH=JSON` overrides.
+pub fn load_config(path: &Path, sets: &[String]) -> Result<ServiceConfig, StudyError> {
+    let text = std::fs::read_to_string(path).map_err(|e| StudyError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let overrides = parse_sets(sets)?;
+    config::parse_with(&text, &path.display().to_string(), &overrides)
+        .map(|f| f.service)
+        .map_err(|e| StudyError::Config(e.to_string()))
+}
+
+/// `PATH=VALUE` pairs; the value is JSON (`1.5`, `true`, `"mekf"`), or a plain string.
+pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, serde_json::Value)>, StudyError> {
+    sets.iter()
+        .map(|s| {
+            let (k, v) = s
+                .split_once('=')
+                .ok_or_else(|| StudyError::Usage(format!("--set {s}: expected PATH=VALUE")))?;
+            let value = serde_json::from_str(v)
+                .unwrap_or_else(|_| serde_json::Value::String(v.to_string()));
+            Ok((k.trim().to_string(), value))
+        })
+        .collect()
+}
+
+/// A markdown table of results.
+pub fn table(results: &[TrialResult]) -> String {
+    let mut s = String::from(
+        "| trial | filter | total ° | heading ° | incl. ° | tilt in 99% | tilt NEES med. | heading in 99% | heading offset ° | samples/s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in results {
+        let c = &r.scores;
+        s += &format!(
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.2} | {:.3} | {:+.2} | {:.0} |\n",
+            r.trial,
+            r.filter,
+            c.total_rmse_deg,
+            c.heading_rmse_deg,
+            c.inclination_rmse_deg,
+            c.tilt_in99,
+            c.tilt_nees_median,
+            c.heading_in99,
+            c.heading_offset_deg,
+            r.samples_per_s
+        );
+    }
+    s
+}
