@@ -281,6 +281,18 @@ struct ImuStudyArgs {
     /// Write each trial's estimates, truth and pipeline state per sample to DIR/TRIAL.csv.
     #[arg(long)]
     series: Option<PathBuf>,
+    /// Tune the parameters of this specification (e.g. config/imu-tuning.json5) by coordinate
+    /// descent over all the trials, starting from the configuration's values; prints the values and
+    /// the tuned table.
+    #[arg(long)]
+    tune: Option<PathBuf>,
+    /// With --tune: also leave one out (tune on all trials but one, score that one, for each trial)
+    /// and report every trial's held-out scores beside its in-sample ones.
+    #[arg(long, requires = "tune")]
+    loo: bool,
+    /// With --tune: write the whole result (values, tables, folds) to this JSON file.
+    #[arg(long, requires = "tune")]
+    out: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -342,6 +354,9 @@ fn imu_study_cmd(args: ImuStudyArgs) -> Result<()> {
         .iter()
         .map(|p| imu_study::read_trial(p))
         .collect::<Result<Vec<_>, _>>()?;
+    if let Some(spec_path) = &args.tune {
+        return imu_tune_cmd(&args, spec_path, &trials);
+    }
     if let Some(dir) = &args.series {
         std::fs::create_dir_all(dir)?;
     }
@@ -350,6 +365,94 @@ fn imu_study_cmd(args: ImuStudyArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&results)?);
     } else {
         print!("{}", imu_study::table(&results));
+    }
+    Ok(())
+}
+
+fn imu_tune_cmd(
+    args: &ImuStudyArgs,
+    spec_path: &std::path::Path,
+    trials: &[attitude_service::tools::imu_study::Trial],
+) -> Result<()> {
+    use attitude_service::tools::imu_study::{objective, start_point, TuneSpec, Tuner};
+    let spec: TuneSpec = json5::from_str(&std::fs::read_to_string(spec_path)?)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", spec_path.display()))?;
+    let text = std::fs::read_to_string(&args.config)?;
+    let mut tuner = Tuner::new(&args.config, &args.sets, &spec, trials, args.filter)?;
+    let all: Vec<usize> = (0..trials.len()).collect();
+    let start = start_point(&spec, &text);
+    let values = |point: &[usize]| -> serde_json::Value {
+        spec.parameters
+            .iter()
+            .zip(point)
+            .map(|(p, &k)| (p.path.clone(), serde_json::json!(p.values[k])))
+            .collect::<serde_json::Map<_, _>>()
+            .into()
+    };
+    let start_scores = tuner.scores(&start)?;
+    let tuned = tuner.descend(&start, &all)?;
+    let tuned_scores = tuner.scores(&tuned)?;
+    eprintln!(
+        "tuned on all {} trials: objective {:.4} (start {:.4}), {} evaluations",
+        trials.len(),
+        objective(&spec, &tuned_scores, &all),
+        objective(&spec, &start_scores, &all),
+        tuner.evaluations
+    );
+    println!("{}", serde_json::to_string_pretty(&values(&tuned))?);
+    let mut folds = Vec::new();
+    if args.loo {
+        for held in 0..trials.len() {
+            let rest: Vec<usize> = all.iter().copied().filter(|&i| i != held).collect();
+            let point = tuner.descend(&tuned, &rest)?;
+            let s = tuner.scores(&point)?;
+            eprintln!(
+                "fold {held} ({}): held-out total {:.2}° incl {:.2}° (in-sample {:.2}° {:.2}°), {} evaluations so far",
+                trials[held].name,
+                s[held].total_rmse_deg,
+                s[held].inclination_rmse_deg,
+                tuned_scores[held].total_rmse_deg,
+                tuned_scores[held].inclination_rmse_deg,
+                tuner.evaluations
+            );
+            folds.push(serde_json::json!({
+                "trial": trials[held].name,
+                "values": values(&point),
+                "held_out": s[held],
+                "in_sample": tuned_scores[held],
+            }));
+        }
+        println!("| trial | in-sample total ° | held-out total ° | in-sample incl. ° | held-out incl. ° | held-out tilt in 99% | held-out NEES med. |");
+        println!("|---|---:|---:|---:|---:|---:|---:|");
+        for f in &folds {
+            let (i, h) = (&f["in_sample"], &f["held_out"]);
+            println!(
+                "| {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.2} |",
+                f["trial"].as_str().unwrap_or(""),
+                i["total_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                h["total_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                i["inclination_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                h["inclination_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                h["tilt_in99"].as_f64().unwrap_or(f64::NAN),
+                h["tilt_nees_median"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
+    }
+    if let Some(out) = &args.out {
+        let names: Vec<&str> = trials.iter().map(|t| t.name.as_str()).collect();
+        let doc = serde_json::json!({
+            "spec": spec,
+            "config": args.config,
+            "sets": args.sets,
+            "trials": names,
+            "start": values(&start),
+            "start_scores": start_scores,
+            "tuned": values(&tuned),
+            "tuned_scores": tuned_scores,
+            "folds": folds,
+            "evaluations": tuner.evaluations,
+        });
+        std::fs::write(out, serde_json::to_string_pretty(&doc)?)?;
     }
     Ok(())
 }

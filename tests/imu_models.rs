@@ -1,7 +1,8 @@
 //! The IMU sensor models (`sensors::imu`, `service.sensors.NAME.kind`): heading-only updates never
 //! tilt and do correct the heading, a disturbed magnetometer is detected and held off, a large
 //! accelerometer norm deviation gates the accelerometer, and the service's config reads the models
-//! (`config/imu.json5` included) and refuses wrong ones.
+//! and refuses wrong ones. (These are the models of named sensors on `P/V/vectors`; raw samples on
+//! `P/V/imu` go through `crate::ahrs`, tested in `tests/ahrs.rs`.)
 
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
@@ -243,11 +244,22 @@ fn the_gravity_lowpass_turns_with_the_body() {
     assert!(last.norm() > 9.0);
 }
 
-const PRESET: &str = include_str!("../config/imu.json5");
+/// Named sensor models for an IMU sent as vector observations (what `config/imu.json5` held before
+/// `P/V/imu`).
+const PRESET: &str = r#"{
+  service: {
+    filter: { kind: "mekf", gyro_arw_rad_sqrt_s: 1.5e-3, gyro_rrw_rad_s_sqrt_s: 3e-5, init_bias_sigma_deg_hr: 2062.6 },
+    sensors: {
+      acc: { kind: "gravity", lowpass_s: 3.0, sigma_norm_scale: 0.0, norm_gate: 5.0, gate_probability: 0 },
+      mag: { kind: "field", sigma_norm_scale: 0.0, norm_limit: 0.1, dip_limit_deg: 10.0, holdoff_s: 0.5,
+             heading_only: true, vertical: [0, 0, 1], gate_probability: 0 },
+    },
+  },
+}"#;
 
 #[test]
-fn the_imu_preset_loads_and_wrong_sensor_options_are_refused() {
-    let c = config::parse(PRESET, "config/imu.json5").unwrap();
+fn the_sensor_models_load_and_wrong_sensor_options_are_refused() {
+    let c = config::parse(PRESET, "sensor preset").unwrap();
     let models = &c.service.policy.sensor_models;
     assert!(matches!(models.get("acc"), Some(SensorModel::Gravity(g)) if g.lowpass_s == 3.0));
     assert!(matches!(models.get("mag"), Some(SensorModel::Field(f)) if f.heading_only));
@@ -277,7 +289,7 @@ fn estimates(events: &[Event]) -> Vec<&EstimateMsg> {
 /// counted in the estimate's diagnostics, and the estimate follows the truth.
 #[test]
 fn a_vehicle_applies_the_sensor_models_and_counts_suspensions() {
-    let c = config::parse(PRESET, "config/imu.json5").unwrap();
+    let c = config::parse(PRESET, "sensor preset").unwrap();
     let policy = c.service.policy.clone();
     let mut v = VehicleState::new("imu", c.service.default_filter.clone());
     let truth = Quaternion::from_euler_321(0.5, 0.1, -0.2);

@@ -142,6 +142,15 @@ impl HardIronFit {
         (ss.max(0.0) / (3.0 * self.n - 3.0).max(1.0)).sqrt()
     }
 
+    /// Keeps `weight` of what the fit has seen (a change of the field: the readings before it no longer
+    /// describe the field after it).
+    fn forget(&mut self, weight: f64) {
+        self.info *= weight;
+        self.rhs *= weight;
+        self.ss *= weight;
+        self.n *= weight;
+    }
+
     /// RMS residual of the recent readings against the last solution.
     fn recent_rms(&self) -> f64 {
         self.recent_ms.max(0.0).sqrt()
@@ -154,7 +163,8 @@ pub enum HeadingObservation {
     NotDue,
     /// Due, but the field is disturbed and within its rejection budget.
     Rejected,
-    Use(VectorObservation),
+    /// The observation, and the heading 1σ of the reading itself (before the correlation's spread).
+    Use(VectorObservation, f64),
 }
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -285,6 +295,10 @@ impl FieldChannel {
                 self.set_reference(self.norm, self.dip, &h);
             }
         } else {
+            if !self.disturbed && c.hard_iron.enabled {
+                self.fit.forget(c.hard_iron.restart_weight);
+                self.fit_ok_s = 0.0;
+            }
             self.undisturbed_s = 0.0;
             self.disturbed = true;
         }
@@ -364,8 +378,14 @@ impl FieldChannel {
         }
     }
 
-    /// The heading observation when one is due (every `interval_s`), from the reading `mag`.
-    pub fn observation(&mut self, c: &MagConfig, mag: &Vector3<f64>) -> HeadingObservation {
+    /// The heading observation when one is due (every `interval_s`), from the reading `mag` taken at
+    /// the turn rate `rate_rad_s`.
+    pub fn observation(
+        &mut self,
+        c: &MagConfig,
+        mag: &Vector3<f64>,
+        rate_rad_s: f64,
+    ) -> HeadingObservation {
         if self.since_update_s + 1e-9 < c.interval_s {
             return HeadingObservation::NotDue;
         }
@@ -383,17 +403,22 @@ impl FieldChannel {
         let horizontal = self.dip.cos().abs().max(1e-3);
         // The heading 1σ: the field's own, and what the offset's uncertainty turns into.
         let offset_heading = self.offset_sigma / (self.norm * horizontal).max(1e-12);
-        let sigma_psi = (c.sigma_rad * c.sigma_rad + offset_heading * offset_heading).sqrt()
-            * weight
-            * (c.correlation_s / c.interval_s.max(1e-9)).max(1.0).sqrt();
-        HeadingObservation::Use(VectorObservation {
-            body,
-            reference: self.direction,
-            // heading_sigma_rad(σ, ‖r_h‖) = σ/‖r_h‖ = σ_ψ.
-            sigma: sigma_psi * horizontal,
-            sensor: Some("mag".into()),
-            aspect: Aspect::Heading(UP),
-        })
+        let timing = c.delay_sigma_s * rate_rad_s;
+        let sigma_psi =
+            (c.sigma_rad * c.sigma_rad + offset_heading * offset_heading + timing * timing).sqrt()
+                * weight;
+        let spread = sigma_psi * (c.correlation_s / c.interval_s.max(1e-9)).max(1.0).sqrt();
+        HeadingObservation::Use(
+            VectorObservation {
+                body,
+                reference: self.direction,
+                // heading_sigma_rad(σ, ‖r_h‖) = σ/‖r_h‖ = σ_ψ.
+                sigma: spread * horizontal,
+                sensor: Some("mag".into()),
+                aspect: Aspect::Heading(UP),
+            },
+            sigma_psi,
+        )
     }
 }
 
@@ -428,7 +453,7 @@ mod tests {
             // The gyro frame is the reference frame here (a perfect gyro).
             let m = a * field(65.0) + offset;
             ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), dt);
-            if let HeadingObservation::Rejected = ch.observation(&c, &m) {
+            if let HeadingObservation::Rejected = ch.observation(&c, &m, 0.0) {
                 rejected += 1;
             }
             if accepted_at.is_none() && ch.hard_iron_changes > 0 {
@@ -453,8 +478,8 @@ mod tests {
             ch.update(&c, &(a * field(65.0)), &(a * UP), &UP, &a, 0.0, 0.01);
             assert!(!ch.disturbed());
             assert!(matches!(
-                ch.observation(&c, &(a * field(65.0))),
-                HeadingObservation::Use(_) | HeadingObservation::NotDue
+                ch.observation(&c, &(a * field(65.0)), 0.0),
+                HeadingObservation::Use(..) | HeadingObservation::NotDue
             ));
         }
         assert_eq!(ch.offset(), Vector3::zeros());
@@ -463,7 +488,7 @@ mod tests {
         }
         assert!(ch.disturbed());
         assert_eq!(
-            ch.observation(&c, &(a * field(65.0) * 1.3)),
+            ch.observation(&c, &(a * field(65.0) * 1.3), 0.0),
             HeadingObservation::Rejected
         );
     }

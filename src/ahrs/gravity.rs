@@ -11,8 +11,8 @@
 //! frame, the RMS of `d` was 0.5–0.75 of the RMS error of the low-passed direction, on every kind of
 //! motion). The direction gets the 1σ
 //!
-//! `σ_lp = √(σ₀² + (κ d_rms / g)²)` (at rest: `σ_rest`), `d_rms` the RMS of the horizontal part of `d`
-//! over `τ_a`,
+//! `σ_lp = √(σ₀² + (κ d_rms / g)²)` (`σ_rest` in place of `σ₀` at rest), `d_rms` the RMS of the
+//! horizontal part of `d` over `τ_a`,
 //!
 //! an error correlated over about `T_c` (`correlation_s`). It is used every `interval_s` (`T_u`) with
 //! `σ = σ_lp √(T_c / T_u)`, so the filter counts the information of one independent observation per
@@ -114,11 +114,14 @@ impl GravityChannel {
 
     /// The 1σ of the low-passed direction now (`σ_lp`), rad.
     pub fn sigma_lp(&self, c: &AccConfig, at_rest: bool) -> f64 {
-        if at_rest {
-            return c.rest_sigma_rad;
-        }
+        // (The motion term counts at rest too: a slow sway without rotation passes the rest test.)
+        let base = if at_rest {
+            c.rest_sigma_rad
+        } else {
+            c.sigma_rad
+        };
         let motion = c.motion_gain * self.motion_rms() / self.g0.max(1e-9);
-        (c.sigma_rad * c.sigma_rad + motion * motion).sqrt()
+        (base * base + motion * motion).sqrt()
     }
 
     /// The tilt observation when one is due (every `interval_s`).

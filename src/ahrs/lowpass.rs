@@ -2,7 +2,9 @@
 //! interval. The cut-off is `f_c = √2 / (2π τ)`, which gives the step response the time constant `τ`
 //! of its non-oscillating part (the choice of Laidig & Seel's VQF, so that `τ` means the same here).
 //! Coefficients by the bilinear transform with pre-warping, recomputed when the interval changes;
-//! direct form II transposed; started in the steady state of the first input (no start-up transient).
+//! direct form I (the last two inputs and outputs are the state, so a change of interval only changes
+//! the coefficients applied to them); started in the steady state of the first input (no start-up
+//! transient).
 
 use nalgebra::Vector3;
 
@@ -28,9 +30,9 @@ pub struct Lowpass3 {
     /// The interval the coefficients are for, and the coefficients.
     dt_s: f64,
     c: [f64; 5],
-    s0: Vector3<f64>,
-    s1: Vector3<f64>,
-    y: Option<Vector3<f64>>,
+    /// The last two inputs and outputs (`x[0]`, `y[0]` the latest); `None` before the first input.
+    x: [Vector3<f64>; 2],
+    y: Option<[Vector3<f64>; 2]>,
 }
 
 impl Lowpass3 {
@@ -40,52 +42,46 @@ impl Lowpass3 {
             tau_s,
             dt_s: f64::NAN,
             c: [1.0, 0.0, 0.0, 0.0, 0.0],
-            s0: Vector3::zeros(),
-            s1: Vector3::zeros(),
+            x: [Vector3::zeros(); 2],
             y: None,
         }
     }
 
     /// The last output (`None` before the first input).
     pub fn value(&self) -> Option<Vector3<f64>> {
-        self.y
+        self.y.map(|y| y[0])
     }
 
-    /// Filters `x`, taken `dt_s` after the previous input (ignored for the first).
+    /// Filters `x`, taken `dt_s` after the previous input (ignored for the first; a non-positive
+    /// interval leaves the filter as it was).
     pub fn update(&mut self, x: &Vector3<f64>, dt_s: f64) -> Vector3<f64> {
         if !(self.tau_s > 0.0) {
-            self.y = Some(*x);
+            self.y = Some([*x, *x]);
             return *x;
         }
-        if (dt_s - self.dt_s).abs() > 1e-9 * dt_s.abs() || self.dt_s.is_nan() {
-            if dt_s > 0.0 && dt_s.is_finite() {
-                self.c = coefficients(self.tau_s, dt_s);
-                self.dt_s = dt_s;
-            }
+        let Some(y) = self.y else {
+            // The steady state of a constant input x.
+            self.x = [*x, *x];
+            self.y = Some([*x, *x]);
+            return *x;
+        };
+        if !(dt_s > 0.0 && dt_s.is_finite()) {
+            return y[0];
+        }
+        if (dt_s - self.dt_s).abs() > 1e-9 * dt_s || self.dt_s.is_nan() {
+            self.c = coefficients(self.tau_s, dt_s);
+            self.dt_s = dt_s;
         }
         let [b0, b1, b2, a1, a2] = self.c;
-        let y = match self.y {
-            None => {
-                // The steady state of a constant input x: y = x.
-                self.s1 = x * (b2 - a2);
-                self.s0 = x * (b1 - a1) + self.s1;
-                *x
-            }
-            Some(_) if !(dt_s > 0.0) => return self.y.unwrap_or(*x),
-            Some(_) => {
-                let y = x * b0 + self.s0;
-                self.s0 = x * b1 - y * a1 + self.s1;
-                self.s1 = x * b2 - y * a2;
-                y
-            }
-        };
-        if !y.iter().all(|v| v.is_finite()) {
+        let out = x * b0 + self.x[0] * b1 + self.x[1] * b2 - y[0] * a1 - y[1] * a2;
+        if !out.iter().all(|v| v.is_finite()) {
             // Restart rather than carry a non-finite state.
             *self = Lowpass3::new(self.tau_s);
-            return *x;
+            return self.update(x, dt_s);
         }
-        self.y = Some(y);
-        y
+        self.x = [*x, self.x[0]];
+        self.y = Some([out, y[0]]);
+        out
     }
 }
 

@@ -45,9 +45,13 @@ const DEG: f64 = std::f64::consts::PI / 180.0;
 
 /// Everything the pipeline assumes about the sensors (`service.imu` of the configuration;
 /// `config/imu.json5` is the preset). The gyro noise itself is the filter's (`service.filter`).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AhrsConfig {
+    /// Uncertainty of a sample's time stamp against the true instant it describes, s (sensor latency
+    /// and clock offset the sender cannot know). A published estimate is uncertain by the rotation
+    /// over that time, `σ_t² ω ωᵀ` about the turn axis; the filter itself does not use it.
+    pub timing_sigma_s: f64,
     pub init: InitConfig,
     pub rest: RestConfig,
     pub acc: AccConfig,
@@ -126,9 +130,12 @@ pub struct MagConfig {
     /// Least 1σ of the heading, rad.
     pub floor_rad: f64,
     /// How much later than the gyro the magnetometer samples the field, s: each reading is turned
-    /// forward by the rotation over that time, `m + δ (ω × m)` (a lag of a few milliseconds, from the
+    /// forward by the rotation over that time, `m − δ (ω × m)` (a lag of a few milliseconds, from the
     /// magnetometer's own filtering, is a heading error of `δ ‖ω‖` in fast turns).
     pub delay_s: f64,
+    /// What remains of it (the delay's uncertainty, the magnetometer's own dynamics), s: the heading
+    /// 1σ grows by `σ_δ ‖ω‖` in quadrature.
+    pub delay_sigma_s: f64,
     pub hard_iron: HardIronConfig,
 }
 
@@ -148,6 +155,9 @@ pub struct HardIronConfig {
     pub min_change: f64,
     /// The accepted offset's RMS residual over the window must exceed the new fit's by this factor.
     pub min_improvement: f64,
+    /// When the field turns disturbed, the fit keeps this weight of what it saw before (it relearns
+    /// from the readings after the change).
+    pub restart_weight: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -161,6 +171,19 @@ pub struct RecoveryConfig {
     /// The 1σ the tilt or heading is widened to, rad.
     pub tilt_sigma_rad: f64,
     pub heading_sigma_rad: f64,
+}
+
+impl Default for AhrsConfig {
+    fn default() -> Self {
+        AhrsConfig {
+            timing_sigma_s: 0.0,
+            init: InitConfig::default(),
+            rest: RestConfig::default(),
+            acc: AccConfig::default(),
+            mag: MagConfig::default(),
+            recovery: RecoveryConfig::default(),
+        }
+    }
 }
 
 impl Default for InitConfig {
@@ -222,6 +245,7 @@ impl Default for MagConfig {
             correlation_s: 5.0,
             floor_rad: 0.3 * DEG,
             delay_s: 0.0,
+            delay_sigma_s: 0.0,
             hard_iron: HardIronConfig::default(),
         }
     }
@@ -239,6 +263,7 @@ impl Default for HardIronConfig {
             recent_s: 2.0,
             min_change: 0.05,
             min_improvement: 1.5,
+            restart_weight: 0.05,
         }
     }
 }
@@ -272,6 +297,12 @@ impl AhrsConfig {
                 Err(format!("{name} must be non-negative and finite, got {v}"))
             }
         };
+        if !(self.timing_sigma_s >= 0.0 && self.timing_sigma_s <= 1.0) {
+            return Err(format!(
+                "timing_sigma_s must be in [0, 1] s, got {}",
+                self.timing_sigma_s
+            ));
+        }
         let i = &self.init;
         nonneg(i.duration_s, "init.duration_s")?;
         positive(i.tilt_sigma_rad, "init.tilt_sigma_rad")?;
@@ -313,6 +344,7 @@ impl AhrsConfig {
         positive(m.sigma_rad, "mag.sigma_rad")?;
         positive(m.correlation_s, "mag.correlation_s")?;
         nonneg(m.floor_rad, "mag.floor_rad")?;
+        nonneg(m.delay_sigma_s, "mag.delay_sigma_s")?;
         if !(m.delay_s.abs() <= 1.0) {
             return Err(format!(
                 "mag.delay_s must be within ±1 s, got {}",
@@ -327,6 +359,12 @@ impl AhrsConfig {
         positive(h.max_residual, "mag.hard_iron.max_residual")?;
         positive(h.recent_s, "mag.hard_iron.recent_s")?;
         nonneg(h.min_change, "mag.hard_iron.min_change")?;
+        if !(h.restart_weight >= 0.0 && h.restart_weight <= 1.0) {
+            return Err(format!(
+                "mag.hard_iron.restart_weight must be in [0, 1], got {}",
+                h.restart_weight
+            ));
+        }
         if !(h.min_improvement >= 1.0 && h.min_improvement.is_finite()) {
             return Err(format!(
                 "mag.hard_iron.min_improvement must be at least 1, got {}",
@@ -388,6 +426,9 @@ pub struct Ahrs {
     gravity: GravityChannel,
     field: Option<FieldChannel>,
     since_bias_s: f64,
+    /// What a published estimate adds to the filter's attitude covariance now (see
+    /// [`Ahrs::published_attitude_covariance`]).
+    published: Matrix3<f64>,
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
     counts: AhrsCounts,
@@ -409,10 +450,17 @@ impl Ahrs {
             gravity: GravityChannel::new(&c.acc, 9.81),
             field: None,
             since_bias_s: 0.0,
+            published: Matrix3::zeros(),
             tilt_inconsistent_s: 0.0,
             heading_inconsistent_s: 0.0,
             counts: AhrsCounts::default(),
         }
+    }
+
+    /// What a published estimate adds to the filter's attitude covariance (body frame, rad²): the
+    /// rotation over the time-stamp uncertainty, `σ_t² ω ωᵀ`.
+    pub fn published_attitude_covariance(&self) -> Matrix3<f64> {
+        self.published
     }
 
     /// The time of the last sample taken.
@@ -562,8 +610,14 @@ impl Ahrs {
             self.phase = Phase::Running;
         }
         let t_prev = self.t_s.unwrap_or(s.t_s);
-        let bias = filter.bias_rad_s();
+        // The gyro frame never removes more than the rest detector's bias limit per axis: a filter
+        // whose bias estimate ran away (an inconsistent start) must not spin the frame the
+        // accelerometer and the hard-iron fit are kept in.
+        let limit = c.rest.bias_limit_rad_s;
+        let bias = filter.bias_rad_s().map(|b| b.clamp(-limit, limit));
         let dt = self.preprocess(c, s, &bias);
+        let omega = s.gyr_rad_s - bias;
+        self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t.
         filter.process(&Measurement::Gyro(crate::sensors::GyroSample {
             t_s: t_prev,
@@ -611,10 +665,11 @@ impl Ahrs {
         if let (Some(mag), None, true) = (s.mag, &self.field, c.mag.enabled) {
             self.field = learn_field(&filter.estimate(), &mag);
         }
+        let omega = s.gyr_rad_s - bias;
         let mag = s.mag.map(|m| {
-            // Turned forward over the magnetometer's delay: the body turned by ω δ since it sampled.
-            let omega = s.gyr_rad_s - bias;
-            m + omega.cross(&m) * c.mag.delay_s
+            // Turned forward over the magnetometer's delay: the body turned by ω δ since it sampled,
+            // and a body-frame vector seen from it turns the other way, Ȧ = −[ω×] A.
+            m - omega.cross(&m) * c.mag.delay_s
         });
         if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
             if let (Some(up_b), Some(up_g)) =
@@ -626,12 +681,14 @@ impl Ahrs {
             self.counts.mag_disturbed = field.disturbed();
             self.counts.mag_new_fields = field.new_fields;
             self.counts.mag_hard_iron_changes = field.hard_iron_changes;
-            match field.observation(&c.mag, &mag) {
+            match field.observation(&c.mag, &mag, omega.norm()) {
                 HeadingObservation::NotDue => {}
                 HeadingObservation::Rejected => self.counts.mag_rejected += 1,
-                HeadingObservation::Use(o) => {
+                HeadingObservation::Use(o, sigma_psi) => {
                     let prior = filter.estimate();
-                    let nis = heading_nis(&prior, &o);
+                    // Consistency with the reading's own heading σ (not the one that spreads its
+                    // information over the correlation time).
+                    let nis = heading_nis(&prior, &o, sigma_psi);
                     self.heading_inconsistent_s = if nis > c.recovery.heading_nis {
                         self.heading_inconsistent_s + c.mag.interval_s
                     } else {
@@ -688,8 +745,9 @@ fn tilt_nis(e: &Estimate, o: &VectorObservation, sigma: f64) -> f64 {
     s.cholesky().map_or(0.0, |c| nu.dot(&c.solve(&nu)))
 }
 
-/// `y²/S` of a heading observation about the estimate `e`: `y = −ψ(Â)`, `S = hᵀ P_α h + σ_ψ²`.
-fn heading_nis(e: &Estimate, o: &VectorObservation) -> f64 {
+/// `y²/S` of a heading observation about the estimate `e` with the heading 1σ `sigma`: `y = −ψ(Â)`,
+/// `S = hᵀ P_α h + σ_ψ²`.
+fn heading_nis(e: &Estimate, o: &VectorObservation, sigma: f64) -> f64 {
     let Some(up) = o.aspect.heading_axis() else {
         return 0.0;
     };
@@ -700,7 +758,6 @@ fn heading_nis(e: &Estimate, o: &VectorObservation) -> f64 {
     let h = heading_jacobian(&a, &o.reference, &e2, horizontal);
     let y = -heading_residual(&a, &o.body, &e1, &e2);
     let p: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(0, 0).into_owned();
-    let sigma = o.sigma / horizontal;
     let s = h.dot(&(p * h)) + sigma * sigma;
     if s > 0.0 {
         y * y / s

@@ -226,6 +226,7 @@ fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorModel>, String
 struct RawImu {
     /// Most estimates per second an IMU vehicle publishes (0: one per sample).
     max_estimate_rate_hz: f64,
+    timing_sigma_s: f64,
     init: InitConfig,
     rest: RestConfig,
     acc: AccConfig,
@@ -802,6 +803,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         return Err("service.persistence.checkpoint_interval_s must be positive".into());
     }
     let imu = AhrsConfig {
+        timing_sigma_s: raw.imu.timing_sigma_s,
         init: raw.imu.init.clone(),
         rest: raw.imu.rest.clone(),
         acc: raw.imu.acc.clone(),

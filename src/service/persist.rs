@@ -15,9 +15,10 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 const MAGIC: &[u8; 8] = b"ATTCKPT\0";
-/// 2: a vehicle holds its sensor models' state (`sensors::imu::SensorState`) and observations their
-/// `aspect`.
-const VERSION: u32 = 2;
+/// 2: a vehicle holds its sensor models' state (`sensors::imu::SensorState`).
+/// 3: observations have an `aspect`; a vehicle holds its raw-IMU pipeline (`crate::ahrs::Ahrs`), its
+/// gyro feed and a third stream; filters their gyro error model (`filters::GyroErrors`).
+const VERSION: u32 = 3;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 

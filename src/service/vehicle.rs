@@ -324,8 +324,17 @@ impl VehicleState {
     }
 
     fn message(&self, e: &Estimate) -> EstimateMsg {
-        let mut msg =
-            EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles());
+        let mut msg = match &self.ahrs {
+            // An IMU vehicle's estimate carries the time-stamp uncertainty too (crate::ahrs).
+            Some(a) => {
+                let mut e = e.clone();
+                let extra = a.published_attitude_covariance();
+                let mut block = e.covariance.fixed_view_mut::<3, 3>(0, 0);
+                block += extra;
+                EstimateMsg::from_domain(&self.id, &self.spec(), &e, self.seq, self.particles())
+            }
+            None => EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles()),
+        };
         let d = &mut msg.diagnostics;
         d.gate = self.gate.clone();
         d.consecutive_gated = self.consecutive_gated;

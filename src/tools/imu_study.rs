@@ -435,3 +435,164 @@ pub fn table(results: &[TrialResult]) -> String {
     }
     s
 }
+
+// ------------------------------------------------------------------------------------------------
+// Tuning by a written procedure: coordinate descent over a grid, and leave-one-out.
+
+/// One tuned parameter: a configuration path and its candidate values.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TuneParameter {
+    pub path: String,
+    pub values: Vec<f64>,
+}
+
+/// What the tuning minimises and over what (`config/imu-tuning.json5`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TuneSpec {
+    pub parameters: Vec<TuneParameter>,
+    /// Passes of coordinate descent at most (it stops earlier when a pass changes nothing).
+    pub passes: usize,
+    /// Honesty penalties: per trial, `tilt_weight · max(0, tilt_in99_min − tilt_in99)` and
+    /// `nees_weight · max(0, nees_min − median NEES)`.
+    pub tilt_in99_min: f64,
+    pub tilt_weight: f64,
+    pub nees_min: f64,
+    pub nees_weight: f64,
+}
+
+/// The objective over the trials `which` (indices into `scores`): the mean of
+/// `ln(total RMSE) + ln(inclination RMSE)` (the log of the geometric means, so every trial counts
+/// by its ratio, not its size) plus the mean honesty penalty.
+pub fn objective(spec: &TuneSpec, scores: &[Scores], which: &[usize]) -> f64 {
+    let mut sum = 0.0;
+    for &i in which {
+        let s = &scores[i];
+        let accuracy = s.total_rmse_deg.ln() + s.inclination_rmse_deg.ln();
+        let penalty = spec.tilt_weight * (spec.tilt_in99_min - s.tilt_in99).max(0.0)
+            + spec.nees_weight * (spec.nees_min - s.tilt_nees_median).max(0.0);
+        let v = accuracy + penalty;
+        sum += if v.is_finite() { v } else { 1e6 };
+    }
+    sum / which.len().max(1) as f64
+}
+
+/// Evaluations of parameter points, remembered (folds of a leave-one-out share most of them).
+pub struct Tuner<'a> {
+    text: String,
+    origin: String,
+    base_sets: Vec<(String, serde_json::Value)>,
+    spec: &'a TuneSpec,
+    trials: &'a [Trial],
+    filter: Option<FilterSpec>,
+    memo: BTreeMap<Vec<u64>, Vec<Scores>>,
+    pub evaluations: usize,
+}
+
+impl<'a> Tuner<'a> {
+    pub fn new(
+        config: &Path,
+        sets: &[String],
+        spec: &'a TuneSpec,
+        trials: &'a [Trial],
+        filter: Option<FilterSpec>,
+    ) -> Result<Self, StudyError> {
+        let text = std::fs::read_to_string(config).map_err(|e| StudyError::Io {
+            path: config.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Ok(Tuner {
+            text,
+            origin: config.display().to_string(),
+            base_sets: parse_sets(sets)?,
+            spec,
+            trials,
+            filter,
+            memo: BTreeMap::new(),
+            evaluations: 0,
+        })
+    }
+
+    /// The configuration overrides of a point (index per parameter).
+    pub fn overrides(&self, point: &[usize]) -> Vec<(String, serde_json::Value)> {
+        let mut o = self.base_sets.clone();
+        for (p, &k) in self.spec.parameters.iter().zip(point) {
+            o.push((p.path.clone(), serde_json::json!(p.values[k])));
+        }
+        o
+    }
+
+    /// Every trial's scores at `point`.
+    pub fn scores(&mut self, point: &[usize]) -> Result<Vec<Scores>, StudyError> {
+        let key: Vec<u64> = point.iter().map(|&k| k as u64).collect();
+        if let Some(s) = self.memo.get(&key) {
+            return Ok(s.clone());
+        }
+        let service = config::parse_with(&self.text, &self.origin, &self.overrides(point))
+            .map_err(|e| StudyError::Config(e.to_string()))?
+            .service;
+        let setup = Setup::new(&service, self.filter, None);
+        let scores: Vec<Scores> = study(self.trials, &setup, None)
+            .into_iter()
+            .map(|r| r.scores)
+            .collect();
+        self.evaluations += 1;
+        self.memo.insert(key, scores.clone());
+        Ok(scores)
+    }
+
+    /// Coordinate descent from `start` over the trials `which`: each parameter in turn takes its best
+    /// value with the others held, until a pass changes nothing (or `passes`). Ties keep the current
+    /// value, so the result does not depend on the order of equal candidates.
+    pub fn descend(&mut self, start: &[usize], which: &[usize]) -> Result<Vec<usize>, StudyError> {
+        let mut point = start.to_vec();
+        let mut best = objective(self.spec, &self.scores(&point)?, which);
+        for _ in 0..self.spec.passes.max(1) {
+            let mut changed = false;
+            for p in 0..point.len() {
+                for k in 0..self.spec.parameters[p].values.len() {
+                    if k == point[p] {
+                        continue;
+                    }
+                    let mut candidate = point.clone();
+                    candidate[p] = k;
+                    let v = objective(self.spec, &self.scores(&candidate)?, which);
+                    if v < best - 1e-12 {
+                        best = v;
+                        point = candidate;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        Ok(point)
+    }
+}
+
+/// The start of the descent: for each parameter, the candidate nearest to the configuration's own
+/// value (read from the file as it is), else the first.
+pub fn start_point(spec: &TuneSpec, config_text: &str) -> Vec<usize> {
+    let value: serde_json::Value = json5::from_str(config_text).unwrap_or_default();
+    spec.parameters
+        .iter()
+        .map(|p| {
+            let mut at = &value;
+            for key in p.path.split('.') {
+                at = &at[key];
+            }
+            match at.as_f64() {
+                Some(v) => p
+                    .values
+                    .iter()
+                    .enumerate()
+                    .min_by(|a, b| (a.1 - v).abs().total_cmp(&(b.1 - v).abs()))
+                    .map_or(0, |(k, _)| k),
+                None => 0,
+            }
+        })
+        .collect()
+}
