@@ -41,8 +41,6 @@ use gravity::{GravityChannel, TiltObservation};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
 
-const DEG: f64 = std::f64::consts::PI / 180.0;
-
 /// Everything the pipeline assumes about the sensors (`service.imu` of the configuration;
 /// `config/imu.json5` is the preset). The gyro noise itself is the filter's (`service.filter`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -190,8 +188,8 @@ impl Default for InitConfig {
     fn default() -> Self {
         InitConfig {
             duration_s: 0.1,
-            tilt_sigma_rad: 2.0 * DEG,
-            heading_sigma_rad: 2.0 * DEG,
+            tilt_sigma_rad: 0.0349,
+            heading_sigma_rad: 0.0349,
         }
     }
 }
@@ -201,12 +199,12 @@ impl Default for RestConfig {
         RestConfig {
             enabled: true,
             lowpass_s: 0.5,
-            gyr_limit_rad_s: 2.0 * DEG,
+            gyr_limit_rad_s: 0.0349,
             acc_limit_m_s2: 0.5,
-            bias_limit_rad_s: 2.0 * DEG,
+            bias_limit_rad_s: 0.0349,
             min_duration_s: 1.5,
             interval_s: 1.0,
-            bias_sigma_rad_s: 0.03 * DEG,
+            bias_sigma_rad_s: 5.2e-4,
         }
     }
 }
@@ -217,11 +215,11 @@ impl Default for AccConfig {
             lowpass_s: 3.0,
             interval_s: 0.1,
             correlation_s: 6.0,
-            sigma_rad: 0.2 * DEG,
+            sigma_rad: 0.0035,
             motion_gain: 1.5,
-            rest_sigma_rad: 0.1 * DEG,
+            rest_sigma_rad: 0.0017,
             norm_gate: 0.25,
-            floor_rad: 0.1 * DEG,
+            floor_rad: 0.0017,
             floor_lp_factor: 1.0,
         }
     }
@@ -233,17 +231,17 @@ impl Default for MagConfig {
             enabled: true,
             lowpass_s: 0.05,
             norm_limit: 0.1,
-            dip_limit_rad: 10.0 * DEG,
+            dip_limit_rad: 0.1745,
             min_undisturbed_s: 0.5,
             max_rejection_s: 60.0,
             rejection_factor: 2.0,
             reference_s: 20.0,
             new_field_s: 20.0,
-            new_field_min_rate_rad_s: 20.0 * DEG,
+            new_field_min_rate_rad_s: 0.349,
             interval_s: 0.1,
-            sigma_rad: 1.0 * DEG,
+            sigma_rad: 0.0175,
             correlation_s: 5.0,
-            floor_rad: 0.3 * DEG,
+            floor_rad: 0.0052,
             delay_s: 0.0,
             delay_sigma_s: 0.0,
             hard_iron: HardIronConfig::default(),
@@ -274,8 +272,8 @@ impl Default for RecoveryConfig {
             tilt_nis: 13.8,
             heading_nis: 10.8,
             after_s: 3.0,
-            tilt_sigma_rad: 5.0 * DEG,
-            heading_sigma_rad: 10.0 * DEG,
+            tilt_sigma_rad: 0.087,
+            heading_sigma_rad: 0.175,
         }
     }
 }

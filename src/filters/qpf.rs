@@ -615,7 +615,8 @@ impl Qpf {
     /// Systematic resampling, then the shrinkage kernel in the local space about `fid` (whose local
     /// states, mean and covariance `locals_and_moments` just computed):
     /// `xᵢ ← x̄ + s [a (x_idx(i) − x̄) + h D εᵢ]`, `a = √(1 − h_eff²)`, `D Dᵀ = S`, `s = √(1 + inflation)`,
-    /// which keeps the cloud's mean and (up to the inflation) its covariance.
+    /// which keeps the cloud's mean in expectation and (up to the inflation) its covariance; then the
+    /// cloud is shifted so that its mean is exactly `x̄`.
     fn resample_and_regularize(
         &mut self,
         fid: &Quaternion,
@@ -667,15 +668,40 @@ impl Qpf {
             for (r, out) in xn.iter_mut().enumerate() {
                 *out = m[r] + s * (a * (self.local[r][j] - m[r]) + h_draw * de[r]);
             }
-            let q = from_mrp([xn[0], xn[1], xn[2]], fid);
+            // (The local states, kept in the scratch cloud until the mean is known.)
             let sc = &mut self.scratch;
-            sc.qx[i] = q[0];
-            sc.qy[i] = q[1];
-            sc.qz[i] = q[2];
-            sc.qw[i] = q[3];
-            sc.bx[i] = xn[3] + b_ref[0];
-            sc.by[i] = xn[4] + b_ref[1];
-            sc.bz[i] = xn[5] + b_ref[2];
+            (sc.qx[i], sc.qy[i], sc.qz[i]) = (xn[0], xn[1], xn[2]);
+            (sc.bx[i], sc.by[i], sc.bz[i]) = (xn[3], xn[4], xn[5]);
+        }
+        // Mean-preserving: the new cloud is shifted so that its mean in the local space is the
+        // weighted mean before resampling. Which particles a resampling happens to pick moves the
+        // mean at random; in a direction the observations do not see (the heading while the
+        // magnetometer is rejected, the vertical bias) those moves add up to a random walk of the
+        // estimate that no information caused.
+        let sc = &mut self.scratch;
+        let inv_n = 1.0 / n as f64;
+        let mean_of = |v: &[f64]| v.iter().sum::<f64>() * inv_n;
+        let shift = [
+            m[0] - mean_of(&sc.qx),
+            m[1] - mean_of(&sc.qy),
+            m[2] - mean_of(&sc.qz),
+            m[3] - mean_of(&sc.bx),
+            m[4] - mean_of(&sc.by),
+            m[5] - mean_of(&sc.bz),
+        ];
+        for i in 0..n {
+            let q = from_mrp(
+                [
+                    sc.qx[i] + shift[0],
+                    sc.qy[i] + shift[1],
+                    sc.qz[i] + shift[2],
+                ],
+                fid,
+            );
+            (sc.qx[i], sc.qy[i], sc.qz[i], sc.qw[i]) = (q[0], q[1], q[2], q[3]);
+            sc.bx[i] += shift[3] + b_ref[0];
+            sc.by[i] += shift[4] + b_ref[1];
+            sc.bz[i] += shift[5] + b_ref[2];
         }
         std::mem::swap(&mut self.cloud, &mut self.scratch);
         self.cloud.w.fill(step);
