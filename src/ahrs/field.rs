@@ -350,11 +350,20 @@ impl FieldChannel {
         } else {
             f64::NAN
         };
-        let good = s.offset_sigma <= h.max_offset_sigma * scale
+        let explains = s.offset_sigma <= h.max_offset_sigma * scale
             && s.residual_rms <= h.max_residual * scale
             && self.fit.recent_rms() <= h.max_residual * scale
-            && self.within(c, field_norm, field_dip, self.norm, self.dip)
-            && (s.offset - self.offset).norm() >= (h.min_change * scale).max(3.0 * s.offset_sigma)
+            && self.within(c, field_norm, field_dip, self.norm, self.dip);
+        let change = (s.offset - self.offset).norm();
+        if explains && self.hard_iron_changes > 0 && change < h.min_change * scale {
+            // A magnet that was accepted keeps being calibrated as more rotation is seen: the fit
+            // close to the accepted offset refines it over `confirm_s`.
+            let k = (interval_s / h.confirm_s.max(interval_s)).min(1.0);
+            self.offset += (s.offset - self.offset) * k;
+            self.offset_sigma += (s.offset_sigma - self.offset_sigma) * k;
+        }
+        let good = explains
+            && change >= (h.min_change * scale).max(3.0 * s.offset_sigma)
             // The new offset must explain the window clearly better than the accepted one (field
             // inhomogeneity along a path also fits a small offset, but hardly better than none).
             && self.fit.residual_with_offset(&self.offset) >= h.min_improvement * s.residual_rms;
