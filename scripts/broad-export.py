@@ -4,7 +4,8 @@
     .venv/bin/python scripts/broad-export.py TRIAL.hdf5 [...] --out DIR
 
 Trial file (little-endian float64 throughout): a header `[n, rate_hz, 15]`, then per sample
-`[t, gx, gy, gz, ax, ay, az, mx, my, mz, qw, qx, qy, qz, movement]`: time (s, k / rate), gyro (rad/s),
+`[t, gx, gy, gz, ax, ay, az, mx, my, mz, qw, qx, qy, qz, movement]`: time (s, (first_sample + k) / rate, with
+the optional attribute `first_sample` of an excerpt, tests/data/broad/README.md; 0 when absent), gyro (rad/s),
 accelerometer (m/s²), magnetometer (µT), the optical truth (Hamilton, body → East-North-Up with magnetic
 north; NaN where the cameras lost the markers, or for a recording without truth) and the benchmark's
 `movement` flag (1/0). Files are named after the trial (`DIR/NAME.trial`).
@@ -34,10 +35,11 @@ def export(path: Path, out: Path) -> Path:
         quat = np.asarray(f["opt_quat"][:], dtype=np.float64) if "opt_quat" in f else np.full((n, 4), np.nan)
         movement = np.asarray(f["movement"][:], dtype=np.float64) if "movement" in f else np.zeros(n)
         rate = float(f.attrs["sampling_rate"])
+        first = int(f.attrs.get("first_sample", 0))
     for name, a in (("imu_gyr", gyr), ("imu_acc", acc), ("imu_mag", mag)):
         if a.shape != (n, 3) or not np.isfinite(a).all():
             raise SystemExit(f"{path}: {name} must be {n}×3 finite values")
-    t = np.arange(n, dtype=np.float64) / rate
+    t = (first + np.arange(n, dtype=np.float64)) / rate
     body = np.column_stack([t, gyr, acc, mag, quat, movement.reshape(n, 1)])
     target = out / f"{path.stem}.trial"
     with open(target, "wb") as fh:

@@ -9,8 +9,10 @@ A thin, synchronous wrapper around a zenoh session that speaks the service's JSO
         print(client.get_attitude("sc1"))  # {'vehicle': 'sc1', 't': 0.0, 'q': {'w': 1.0, ..}, 'sigma_deg': [..]}
 
 Measurements go in with ``publish_gyro(vehicle, t, omega)`` / ``publish_gyro_batch`` and
-``publish_vectors(vehicle, t, [(body, ref, sigma), ...])`` / ``publish_vectors_batch``; every estimate
-comes out on ``subscribe_estimates(callback)``. Puts are asynchronous: the service processes them after
+``publish_vectors(vehicle, t, [(body, ref, sigma), ...])`` / ``publish_vectors_batch``, or, for a vehicle
+with a raw IMU, ``publish_imu(vehicle, t, gyr, acc, mag)`` / ``publish_imu_batch`` instead (the service
+derives the references and noise models itself; a vehicle is fed either gyro samples or IMU samples,
+never both); every estimate comes out on ``subscribe_estimates(callback)``. Puts are asynchronous: the service processes them after
 they arrive, so a query right after a put may not reflect it yet (wait for its estimate instead). On a new
 session, call :meth:`AttitudeClient.wait_for_service` before publishing: zenoh drops puts that it does not
 know a subscriber for yet.
@@ -91,6 +93,14 @@ def _observation(o: Any) -> dict:
     if sensor is not None:
         obs["sensor"] = str(sensor)
     return obs
+
+
+def _imu_sample(t: float, gyr: Any, acc: Any, mag: Any = None) -> dict:
+    """A wire IMU sample ``{"t", "gyr", "acc"[, "mag"]}``."""
+    sample = {"t": float(t), "gyr": _vec3(gyr, "gyr"), "acc": _vec3(acc, "acc")}
+    if mag is not None:
+        sample["mag"] = _vec3(mag, "mag")
+    return sample
 
 
 def _quaternion(q: Any) -> dict:
@@ -223,6 +233,27 @@ class AttitudeClient:
         if not batch:
             raise ValueError("empty vectors batch")
         self.put_raw(vehicle, "vectors", _dumps(batch))
+
+    def publish_imu(
+        self,
+        vehicle: str,
+        t: float,
+        gyr: Sequence[float],
+        acc: Sequence[float],
+        mag: Sequence[float] | None = None,
+    ) -> None:
+        """One raw IMU sample at ``t`` (s), body frame: rate ``gyr`` (rad/s, covering the interval since
+        the vehicle's previous sample), specific force ``acc`` (m/s²) and, optionally, the magnetic field
+        ``mag`` (any unit, the same throughout)."""
+        self.put_raw(vehicle, "imu", _dumps(_imu_sample(t, gyr, acc, mag)))
+
+    def publish_imu_batch(self, vehicle: str, samples: Iterable[Sequence[Any]]) -> None:
+        """Raw IMU samples ``[(t, gyr, acc), ...]`` or ``[(t, gyr, acc, mag), ...]`` (``mag`` may be None)
+        in one message (processed in order)."""
+        batch = [_imu_sample(*s) for s in samples]
+        if not batch:
+            raise ValueError("empty IMU batch")
+        self.put_raw(vehicle, "imu", _dumps(batch))
 
     # ------------------------------------------------------------------------------------------
     # Queries

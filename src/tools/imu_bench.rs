@@ -346,7 +346,8 @@ pub fn rest_reference(trial: &ImuTrial) -> Result<RestReference, ImuBenchError> 
 
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
 
-/// The two raw observations of one sample as a client sends them (see `clients/python/broad_replay.py`):
+/// The two raw observations of one sample as a client that computes the references sends them on
+/// `P/V/vectors` (`config/imu.json5`):
 /// the accelerometer against `[0, 0, g₀]` with `σ = σ_g g₀`, the magnetometer against `m₀ [0, cos δ, −sin δ]`
 /// with `σ = σ_m m₀` (so that the direction σ at the reference norm is `σ_g`, `σ_m` rad).
 fn raw_observations(

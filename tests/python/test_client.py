@@ -43,6 +43,24 @@ def test_observation_forms_and_numpy_inputs(client):
     assert attitude_error_deg(got[-1]["q"], {"w": 1, "x": 0, "y": 0, "z": 0}) < 0.01
 
 
+def test_imu_forms(client):
+    """Raw IMU samples one by one and in batches, with and without a magnetometer, as lists or numpy arrays: after
+    the pipeline's alignment (service.imu.init.duration_s, 0.1 s) one estimate per sample. Level and facing
+    magnetic north (specific force up, field north and down): the identity."""
+    vehicle = "c-imu"
+    estimates = Collector()
+    sub = subscribe_synced(client, client.subscribe_estimates, estimates, vehicle=vehicle)
+    acc, mag = np.array([0.0, 0.0, 9.81]), [0.0, 20.0, -40.0]
+    client.publish_imu(vehicle, 0.0, np.zeros(3), acc, mag)
+    client.publish_imu_batch(vehicle, [(0.01 * k, [0, 0, 0], acc, mag) for k in range(1, 20)])
+    client.publish_imu_batch(vehicle, [(0.2 + 0.01 * k, (0.0, 0.0, 0.0), acc.tolist()) for k in range(10)])
+    client.publish_imu(vehicle, 0.3, [0, 0, 0], acc, mag=None)
+    got = estimates.wait_for(lambda i: len(i) >= 21, 10, "21 estimates")
+    sub.undeclare()
+    assert [round(e["t"], 6) for e in got] == [round(0.1 + 0.01 * k, 6) for k in range(21)]
+    assert attitude_error_deg(got[-1]["q"], {"w": 1, "x": 0, "y": 0, "z": 0}) < 0.5
+
+
 def test_local_validation(client):
     with pytest.raises(ValueError):
         client.publish_gyro("c-bad", math.nan, [0, 0, 0])
@@ -50,6 +68,10 @@ def test_local_validation(client):
         client.publish_gyro("c-bad", 1.0, [0, 0])
     with pytest.raises(ValueError):
         client.publish_gyro_batch("c-bad", [])
+    with pytest.raises(ValueError):
+        client.publish_imu("c-bad", 1.0, [0, 0, 0], [0, 9.81])
+    with pytest.raises(ValueError):
+        client.publish_imu_batch("c-bad", [])
     with pytest.raises(ValueError):
         client.get_attitude("*")
     with pytest.raises(ValueError):
