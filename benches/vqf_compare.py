@@ -7,8 +7,9 @@
 What it does:
 
 1. Reads the trial (`imu_gyr` rad/s, `imu_acc` m/s², `imu_mag` µT, `opt_quat` [w,x,y,z] body→ENU, `movement`,
-   attribute `sampling_rate`) and writes the samples file of `attitude-service imu-bench` (little-endian f64:
-   `[n, rate_hz]`, then per sample `[t, gx, gy, gz, ax, ay, az, mx, my, mz]`).
+   attribute `sampling_rate`) and writes the trial file of `attitude-service imu-bench` (the format of
+   `scripts/broad-export.py`: little-endian f64, `[n, rate_hz, 15]`, then per sample
+   `[t, gyr(3), acc(3), mag(3), opt_quat(4), movement]`).
 2. Runs VQF (Laidig & Seel 2023, PyPI `vqf`) three ways and times each (wall clock, best of `--repeat`;
    the `updateBatch` runs alternate with the MEKF runs so that both see the same machine load):
    * `VQF(Ts).updateBatch(gyr, acc, mag)`: the C++ filter looping over the samples in compiled code. **This is
@@ -17,9 +18,10 @@ What it does:
      measures the Python/Cython call overhead per sample.
    * `offlineVQF(gyr, acc, mag, Ts)`: the acausal offline variant, for information (it may use future samples,
      so its accuracy is not comparable to a causal filter's).
-3. Runs `attitude-service imu-bench --samples FILE [--estimates-out FILE]` (`--repeat` times, best of) and reads
-   its JSON line (`samples_per_s`: the whole MEKF run in one process, no network, file I/O excluded; process
-   start-up is not counted for either side). ratio = MEKF samples/s ÷ VQF `updateBatch` samples/s.
+3. Runs `attitude-service imu-bench --trial FILE --config config/imu.json5 [--estimates-out FILE]` (`--repeat`
+   times, best of) and reads its JSON line (`samples_per_s`: the trial through one vehicle of the service's
+   pipeline with the MEKF, in one process, no network, file I/O excluded; process start-up is not counted for
+   either side). ratio = MEKF samples/s ÷ VQF `updateBatch` samples/s.
 4. Scores both with the BROAD metric (`example_code/broad_utils.py`): `e = q_est ⊗ q_opt⁻¹` (Hamilton, earth-frame
    error), total `2·acos(|e_w|)`, heading `2·atan(|e_z/e_w|)`, inclination `2·acos(√(e_w² + e_z²))`, RMSE in
    degrees over `movement` (NaN reference rows ignored, as `nanmean` does there).
@@ -132,10 +134,13 @@ def load_trial(path: Path) -> dict:
 
 
 def write_samples(path: Path, trial: dict) -> None:
+    """The trial file of `imu-bench` (the format of scripts/broad-export.py)."""
     n = len(trial["gyr"])
-    t = np.arange(n, dtype=np.float64) / trial["rate_hz"]
-    body = np.column_stack([t, trial["gyr"], trial["acc"], trial["mag"]]).astype("<f8")
-    header = np.array([n, trial["rate_hz"]], dtype="<f8")
+    t = np.asarray(trial["t"], dtype=np.float64)
+    body = np.column_stack(
+        [t, trial["gyr"], trial["acc"], trial["mag"], trial["opt_quat"], trial["movement"].astype(np.float64)]
+    ).astype("<f8")
+    header = np.array([n, trial["rate_hz"], 15], dtype="<f8")
     with open(path, "wb") as f:
         f.write(header.tobytes())
         f.write(np.ascontiguousarray(body).tobytes())
@@ -203,7 +208,7 @@ def run_vqf_others(trial: dict, repeat: int, online_loop: bool, batch_quat: np.n
 
 def mekf_once(bin_path: Path, samples: Path, estimates: Path | None, n: int) -> dict:
     """One run of `attitude-service imu-bench`; its JSON line (the timing is the binary's own)."""
-    cmd = [str(bin_path), "imu-bench", "--samples", str(samples)]
+    cmd = [str(bin_path), "imu-bench", "--trial", str(samples), "--config", str(ROOT / "config" / "imu.json5")]
     if estimates is not None:
         cmd += ["--estimates-out", str(estimates)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -268,7 +273,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="vqf_compare_") as tmp:
         work = args.workdir or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
-        samples = work / f"{trial['name']}.samples.bin"
+        samples = work / f"{trial['name']}.trial"
         estimates = work / f"{trial['name']}.mekf.bin"
         write_samples(samples, trial)
         batch, mekf = timed_pair(trial, args.bin, samples, estimates, args.repeat)

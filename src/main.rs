@@ -53,8 +53,8 @@ enum Command {
     /// Each filter's per-step cost on this machine (gyro propagation + an update with three vector
     /// observations), against the MEKF measured in the same run.
     Bench(BenchArgs),
-    /// Our MEKF over a recorded IMU trial (gyro, accelerometer, magnetometer) in one process without
-    /// the network, timed: the Rust half of `bench --vqf`.
+    /// A recorded IMU trial (a file of scripts/broad-export.py) through one vehicle of the service's
+    /// pipeline in one process without the network, timed: the Rust half of `bench --vqf`.
     ImuBench(ImuBenchArgs),
     /// Recorded IMU trials (files of scripts/broad-export.py) through the service's vehicle pipeline in
     /// one process, scored against their truth: BROAD's RMSEs and how often the error lies inside the
@@ -245,17 +245,21 @@ struct BenchArgs {
 
 #[derive(Args)]
 struct ImuBenchArgs {
-    /// Samples file written by benches/vqf_compare.py (little-endian f64: n, rate, then
-    /// t, gyro(3), acc(3), mag(3) per sample).
+    /// A trial file of scripts/broad-export.py.
     #[arg(long)]
-    samples: PathBuf,
+    trial: PathBuf,
+    /// The service configuration the vehicle runs.
+    #[arg(long, default_value = "config/imu.json5")]
+    config: PathBuf,
+    /// Replace a configuration value: PATH=JSON (repeatable).
+    #[arg(long = "set")]
+    sets: Vec<String>,
+    /// The filter instead of the configuration's.
+    #[arg(long)]
+    filter: Option<FilterSpec>,
     /// Write the estimated quaternions here.
     #[arg(long)]
     estimates_out: Option<PathBuf>,
-    /// Override fields of the benchmark's tuning with a JSON object (for experiments), e.g.
-    /// '{"sigma_v": 2e-3, "field": {"heading_only": true, ...}}' (see tools::imu_bench::MekfTuning).
-    #[arg(long)]
-    tuning: Option<String>,
 }
 
 #[derive(Args)]
@@ -468,9 +472,11 @@ fn main() -> Result<()> {
         Command::Bench(args) => bench_cmd(args),
         Command::ImuBench(args) => {
             let line = attitude_service::tools::imu_bench::main_entry(
-                &args.samples,
+                &args.trial,
+                &args.config,
+                &args.sets,
+                args.filter,
                 args.estimates_out.as_deref(),
-                args.tuning.as_deref(),
             )?;
             println!("{line}");
             Ok(())
