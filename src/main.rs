@@ -323,6 +323,10 @@ struct LoadgenArgs {
     /// link) instead of the service.
     #[arg(long)]
     echo: bool,
+    /// Send raw IMU samples on P/V/imu instead, N per put (N × --rate samples per second per vehicle),
+    /// each answered by an estimate.
+    #[arg(long, conflicts_with = "echo")]
+    imu: Option<usize>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -917,6 +921,7 @@ async fn loadgen_cmd(args: LoadgenArgs) -> Result<()> {
         duration_s: args.duration,
         vehicle_prefix: args.vehicle_prefix.clone(),
         drain_s: 5.0,
+        imu_batch: args.imu.unwrap_or(0),
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

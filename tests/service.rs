@@ -432,6 +432,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         duration_s: 1.0,
         vehicle_prefix: "lg".into(),
         drain_s: 5.0,
+        imu_batch: 0,
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();
@@ -446,5 +447,17 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
     let _echo = echo(&h.client, &echo_keys).await.unwrap();
     let e = run(&h.client, &echo_keys, &options, "echo").await.unwrap();
     assert_eq!((e.sent, e.estimates, e.lost), (60, 60, 0), "{e:?}");
+    // Raw IMU samples: every one of them comes back as an estimate.
+    let imu = LoadOptions {
+        imu_batch: 10,
+        vehicle_prefix: "lgi".into(),
+        ..options
+    };
+    let r = run(&h.client, &keys, &imu, "service").await.unwrap();
+    assert_eq!(
+        (r.sent, r.estimates, r.lost, r.rejected),
+        (600, 600, 0, 0),
+        "{r:?}"
+    );
     h.stop().await;
 }

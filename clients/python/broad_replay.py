@@ -253,7 +253,13 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
     (NaN where a sample has no estimate)."""
     n, t, rate = len(trial["gyr"]), trial["t"], trial["rate_hz"]
     tag = args.tag or f"{os.getpid()}-{int(time.time() * 1000) % 1_000_000}"
-    vehicles = {spec: f"{args.vehicle_prefix}-{spec.replace(':', '-')}-{tag}" for spec in specs}
+    copies = max(1, getattr(args, "copies", 1))
+    pause = getattr(args, "pause", 0.0)
+    # One vehicle per spec, or `copies` of them fed the same samples at once (keys "spec#2", ...).
+    specs = [spec if c == 1 else f"{spec}#{c}" for spec in specs for c in range(1, copies + 1)]
+    vehicles = {
+        spec: f"{args.vehicle_prefix}-{spec.replace(':', '-').replace('#', '-c')}-{tag}" for spec in specs
+    }
     by_vehicle = {v: s for s, v in vehicles.items()}
     lock = threading.Lock()
     cond = threading.Condition(lock)
@@ -326,7 +332,10 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
     drainer.start()
     subs = [client.subscribe_rejections(on_rejected)]
     for spec, vehicle in vehicles.items():
-        client.reset(vehicle, **reset_fields(spec, args.particles))
+        fields = reset_fields(spec.split("#")[0], args.particles)
+        if getattr(args, "reset_t", None) is not None:
+            fields["t"] = args.reset_t  # re-anchors the vehicle's time (a vehicle replayed again)
+        client.reset(vehicle, **fields)
     time.sleep(0.2)  # let the subscriptions reach the service
 
     t0 = time.monotonic()
@@ -346,6 +355,8 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
                         )
             client.publish_imu_batch(vehicle, batch)
         sent = end
+        if pause > 0:
+            time.sleep(pause)
     # The last samples leave the reorder window by wall time. Wait until every sample has its estimate, or
     # none came for `quiet` s (a refused sample never will).
     quiet = 3.0
@@ -375,6 +386,7 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
             "missing": int(n - first - has[first:].sum()),
             "rejected": rejected[spec],
             "seconds": seconds,
+            # (Of this vehicle; with copies, all of them: `copies` times as many.)
             "samples_per_s": n / seconds if seconds > 0 else None,
             "imu_diagnostics": diagnostics.get("imu"),
         }
@@ -428,11 +440,17 @@ def main() -> int:
                                   "filter's seed derives from its vehicle id: a fixed tag on a fresh service "
                                   "repeats a run. Every replay needs vehicle ids new to the service (an id already used "
                                   "refuses the replay's times as old): give each trial its own tag")
+    ap.add_argument("--copies", type=int, default=1,
+                    help="feed the samples to this many vehicles per filter at once (ids ...-c2, -c3, ...): the "
+                         "service's throughput with that many vehicles; the copies must agree exactly (default 1)")
+    ap.add_argument("--pause", type=float, default=0.0,
+                    help="seconds between batches (another arrival timing; the estimates must not change)")
     ap.add_argument("--no-peers", action="store_true", help="skip VQF and Madgwick")
     ap.add_argument("--details", type=Path, help="write the run's particulars here (JSON)")
     args = ap.parse_args()
-    if args.batch < 1 or args.window < args.batch or args.particles < 1:
-        ap.error("--batch must be ≥ 1, --window ≥ --batch, --particles ≥ 1")
+    if args.batch < 1 or args.window < args.batch or args.particles < 1 or args.copies < 1 or args.pause < 0:
+        ap.error("--batch must be ≥ 1, --window ≥ --batch, --particles ≥ 1, --copies ≥ 1, --pause ≥ 0")
+    args.reset_t = None
 
     trial = load_trial(args.trial, args.excerpt_seconds)
     if trial["opt_quat"] is None or trial["movement"] is None or not trial["movement"].any():
@@ -446,6 +464,21 @@ def main() -> int:
         runs = {}
         for spec in specs:
             runs.update(replay(client, trial, [spec], args))
+    # Copies of a vehicle got the same samples: they must have published the same estimates.
+    copies = {spec: [runs.pop(key) for key in list(runs) if key.startswith(spec + "#")] for spec in specs}
+    for spec in specs:
+        others = copies[spec]
+        same = all(
+            np.array_equal(r["quat"], runs[spec]["quat"], equal_nan=True)
+            and np.array_equal(r["cov_att"], runs[spec]["cov_att"], equal_nan=True)
+            for r in others
+        )
+        if args.copies > 1:
+            runs[spec]["copies"] = args.copies
+            runs[spec]["copies_identical"] = same
+            runs[spec]["samples_per_s_all_copies"] = runs[spec]["samples_per_s"] * args.copies
+            runs[spec]["rejected_all_copies"] = sum(sum(r["rejected"].values()) for r in others) + sum(
+                runs[spec]["rejected"].values())
 
     scores = {
         spec: broad_scores(run["quat"], run["cov_att"], trial["opt_quat"], trial["movement"])
@@ -499,6 +532,9 @@ def main() -> int:
         if name in runs:
             run = runs[name]
             note = f"through the service, {run['samples_per_s']:.0f} samples/s"
+            if args.copies > 1:
+                note += (f" per vehicle, {run['samples_per_s_all_copies']:.0f} for all {args.copies}"
+                         f" (copies {'identical' if run['copies_identical'] else 'DIFFER'})")
             if name.startswith("qpf"):
                 note += f", {args.particles} particles"
         print(f"{name:<14} {r['total_rmse_deg']:>8.2f} {r['heading_rmse_deg']:>9.2f} "

@@ -1,10 +1,11 @@
-//! `attitude-service loadgen`: publishes gyro and vector messages for K vehicles at a fixed rate against
-//! a running service and measures sustained throughput and put→estimate latency; `--echo` measures a
-//! bare zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors`, put the payload
-//! back on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
+//! `attitude-service loadgen`: publishes gyro and vector messages (or raw IMU samples, `--imu N`: puts of
+//! N samples on `P/V/imu`, each sample answered by an estimate) for K vehicles at a fixed rate against a
+//! running service and measures sustained throughput and put→estimate latency; `--echo` measures a bare
+//! zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors`, put the payload back
+//! on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
 
 use crate::service::keys::{Keys, Leaf};
-use crate::wire::{GyroMsg, ObservationMsg, VectorsMsg};
+use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -23,6 +24,9 @@ pub struct LoadOptions {
     pub vehicle_prefix: String,
     /// How long to wait for the last estimates after sending stops, s.
     pub drain_s: f64,
+    /// 0: gyro and vector messages. N > 0: raw IMU samples instead, N per put (a sample rate of
+    /// `rate_hz · N` per vehicle), every one of which must come back as an estimate.
+    pub imu_batch: usize,
 }
 
 /// The report (`--json` prints it as one object).
@@ -33,7 +37,8 @@ pub struct LoadReport {
     pub vehicles: usize,
     pub rate_hz: f64,
     pub duration_s: f64,
-    /// Vector messages sent (each should produce one estimate); gyro messages are sent too.
+    /// Vector messages (or IMU samples) sent, each of which should produce one estimate; gyro messages
+    /// are sent too (not with IMU samples).
     pub sent: u64,
     pub gyro_sent: u64,
     /// Estimates (or echoes) received for the vector messages sent.
@@ -196,6 +201,24 @@ pub async fn probe(
     Ok(())
 }
 
+/// A raw IMU sample of vehicle `i` at `t`: turning slowly about a tilted axis, gravity and a field seen
+/// from that attitude (the pipeline has real work: tilt, heading, no rest).
+pub fn imu_sample(t: f64, i: usize) -> ImuMsg {
+    use crate::attitude::Quaternion;
+    use nalgebra::Vector3;
+    let w = Vector3::new(0.1, -0.05, 0.2 + 0.01 * (i % 7) as f64);
+    let q = Quaternion::from_rotation_vector(&(w * t));
+    let a = q.attitude_matrix();
+    let g = a * Vector3::new(0.0, 0.0, 9.81);
+    let m = a * Vector3::new(0.0, 15.6, -41.7);
+    ImuMsg {
+        t,
+        gyr: [w[0], w[1], w[2]],
+        acc: [g[0], g[1], g[2]],
+        mag: Some([m[0], m[1], m[2]]),
+    }
+}
+
 /// Runs the load. The session must reach the service (or the echo).
 pub async fn run(
     session: &zenoh::Session,
@@ -244,12 +267,32 @@ pub async fn run(
             .congestion_control(CongestionControl::Block)
             .express(true)
     };
+    if options.imu_batch > 0 {
+        // An IMU vehicle aligns from its first samples (no estimate for them): half a second of
+        // samples before the clock starts, not counted.
+        let dt = 1.0 / (options.rate_hz * options.imu_batch as f64);
+        let n = (0.5 / dt).ceil() as usize;
+        for (i, v) in ids.iter().enumerate() {
+            let warmup: Vec<ImuMsg> = (0..n)
+                .map(|j| imu_sample(-((n - j) as f64) * dt, i))
+                .collect();
+            session
+                .put(
+                    keys.vehicle(v, Leaf::Imu),
+                    serde_json::to_vec(&warmup).unwrap_or_default(),
+                )
+                .encoding(Encoding::APPLICATION_JSON)
+                .congestion_control(CongestionControl::Block)
+                .await?;
+        }
+    }
     let period = Duration::from_secs_f64(1.0 / options.rate_hz);
     let ticks = (options.duration_s * options.rate_hz).round().max(1.0) as u64;
     let start = Instant::now();
     let (mut sent, mut gyro_sent, mut lag_max) = (0u64, 0u64, Duration::ZERO);
     let gyro_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Gyro)).collect();
     let vector_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Vectors)).collect();
+    let imu_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Imu)).collect();
     for tick in 0..ticks {
         let due = start + period * tick as u32;
         let now = Instant::now();
@@ -259,6 +302,25 @@ pub async fn run(
             lag_max = lag_max.max(now - due);
         }
         let t = tick as f64 / options.rate_hz;
+        if options.imu_batch > 0 {
+            for (i, key) in imu_keys.iter().enumerate() {
+                let n = options.imu_batch;
+                let samples: Vec<ImuMsg> = (0..n)
+                    .map(|j| imu_sample(t + j as f64 / (options.rate_hz * n as f64), i))
+                    .collect();
+                let payload = serde_json::to_vec(&samples).unwrap_or_default();
+                {
+                    let mut p = pending[i].lock().unwrap_or_else(|e| e.into_inner());
+                    let now = Instant::now();
+                    for s in &samples {
+                        p.insert(time_key(s.t), now);
+                    }
+                }
+                put(key.clone(), payload).await?;
+                sent += n as u64;
+            }
+            continue;
+        }
         for i in 0..ids.len() {
             let vectors = serde_json::to_vec(&star_set(t, i)).unwrap_or_default();
             pending[i]
