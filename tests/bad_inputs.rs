@@ -31,6 +31,13 @@ use std::time::{Duration, Instant};
 const PREFIX: &str = "bi";
 /// The vehicle that tracks while the rows are sent (and the target of rows without `vehicle`).
 const HEALTHY: &str = "healthy";
+/// What the healthy vehicle is fed besides vector sets: gyro samples, or raw IMU samples (a vehicle
+/// takes one or the other; proto/BAD_INPUTS.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Feed {
+    Gyro,
+    Imu,
+}
 /// Codes that no input and no reset request can produce, and why.
 const NOT_FROM_INPUTS: &[(RejectCode, &str)] = &[
     (
@@ -45,12 +52,13 @@ const NOT_FROM_INPUTS: &[(RejectCode, &str)] = &[
     ),
 ];
 
-/// Codes decided by the vehicle's filter, after the input's items were queued: the vehicle's
-/// `received` counts them (proto/BAD_INPUTS.md). Every other code is decided before the queue.
+/// Codes decided by the vehicle, after the input's items were queued: the vehicle's `received` counts
+/// them (proto/BAD_INPUTS.md). Every other code is decided before the queue.
 const QUEUED_CODES: &[RejectCode] = &[
     RejectCode::OutOfOrder,
     RejectCode::Duplicate,
     RejectCode::TimeJump,
+    RejectCode::MixedInputs,
     RejectCode::NotInitialized,
     RejectCode::FilterError,
 ];
@@ -66,6 +74,9 @@ struct Row {
     id: String,
     case: String,
     leaf: String,
+    /// The healthy vehicle's feed (`gyro`, `imu`) when it is not the row's leaf's.
+    #[serde(default)]
+    healthy: Option<String>,
     #[serde(default)]
     vehicle: Option<String>,
     #[serde(default)]
@@ -89,6 +100,14 @@ impl Row {
 
     fn is_reset(&self) -> bool {
         self.leaf == "reset"
+    }
+
+    /// The healthy vehicle's feed: the row's `healthy`, else IMU samples for the rows of leaf `imu`.
+    fn feed(&self) -> Feed {
+        match (self.healthy.as_deref(), self.leaf.as_str()) {
+            (Some("imu"), _) | (None, "imu") => Feed::Imu,
+            _ => Feed::Gyro,
+        }
     }
 
     fn config(&self) -> Map<String, Value> {
@@ -129,10 +148,18 @@ fn rows() -> Vec<Row> {
             r.id
         );
         assert!(
-            ["gyro", "vectors", "reset"].contains(&r.leaf.as_str()),
-            "{}: leaf {:?} (gyro, vectors, reset)",
+            ["gyro", "vectors", "imu", "reset"].contains(&r.leaf.as_str()),
+            "{}: leaf {:?} (gyro, vectors, imu, reset)",
             r.id,
             r.leaf
+        );
+        assert!(
+            r.healthy
+                .as_deref()
+                .is_none_or(|h| ["gyro", "imu"].contains(&h)),
+            "{}: healthy {:?} (gyro, imu)",
+            r.id,
+            r.healthy
         );
         assert!(
             code_of(&r.code).is_some(),
@@ -171,6 +198,12 @@ fn vectors(t: f64) -> String {
     format!(r#"{{"t": {t:?}, "obs": [{}, {}]}}"#, OBS[0], OBS[1])
 }
 
+/// A raw IMU sample of the setup: at rest, level, facing north (the identity attitude in
+/// East-North-Up), the field in µT.
+fn imu(t: f64) -> String {
+    format!(r#"{{"t": {t:?}, "gyr": [0, 0, 0], "acc": [0, 0, 9.81], "mag": [0, 15.6, -41.7]}}"#)
+}
+
 /// `payload_gen` (the rules are in proto/BAD_INPUTS.md).
 fn generate(g: &Value) -> Vec<u8> {
     let num = |k: &str| {
@@ -194,6 +227,11 @@ fn generate(g: &Value) -> Vec<u8> {
         Some("vectors_batch") => {
             let (t0, dt) = (num("t0"), num("dt"));
             let items: Vec<String> = (0..n()).map(|i| vectors(t0 + i as f64 * dt)).collect();
+            format!("[{}]", items.join(", "))
+        }
+        Some("imu_batch") => {
+            let (t0, dt) = (num("t0"), num("dt"));
+            let items: Vec<String> = (0..n()).map(|i| imu(t0 + i as f64 * dt)).collect();
             format!("[{}]", items.join(", "))
         }
         Some("obs") => {
@@ -368,8 +406,28 @@ impl Run {
         self.engine.state_of(HEALTHY).ok().map(|e| (*e).clone())
     }
 
-    /// The healthy vehicle of the setup: tracking, its time 1.5 s, its estimate at 1 s with seq 2.
-    fn init_healthy(&self) {
+    /// The healthy vehicle of the setup, tracking at time 1.5 s: fed gyro samples, its estimate at 1 s
+    /// with seq 2; fed IMU samples, at 1.5 s with seq 15 (one per sample from the alignment at 0.1 s).
+    fn init_healthy(&self, feed: Feed) {
+        if feed == Feed::Imu {
+            for i in 0..=15 {
+                self.put(HEALTHY, "imu", imu(i as f64 / 10.0));
+            }
+            let ok = self.wait(Duration::from_secs(10), |r| {
+                r.estimate().is_some_and(|e| e.seq == 15 && e.t == 1.5)
+                    && r.engine.vehicle(HEALTHY).is_some_and(|v| {
+                        let i = v.info();
+                        i.processed == 16 && i.t == Some(1.5)
+                    })
+            });
+            assert!(
+                ok,
+                "the healthy IMU vehicle did not start: {:?}",
+                self.rejections_since(0)
+            );
+            assert!(self.rejections_since(0).is_empty());
+            return;
+        }
         self.put(HEALTHY, "gyro", gyro(0.0));
         self.put(HEALTHY, "vectors", vectors(0.0));
         for i in 1..=10 {
@@ -392,10 +450,16 @@ impl Run {
         assert!(self.rejections_since(0).is_empty());
     }
 
-    /// A gyro sample and a vector set at t = 3 s; the estimate they give.
-    fn probe(&self) -> Result<EstimateMsg, String> {
-        self.put(HEALTHY, "gyro", gyro(3.0));
-        self.put(HEALTHY, "vectors", vectors(3.0));
+    /// A gyro sample and a vector set at t = 3 s (an IMU sample for an IMU vehicle); the estimate they
+    /// give.
+    fn probe(&self, feed: Feed) -> Result<EstimateMsg, String> {
+        match feed {
+            Feed::Gyro => {
+                self.put(HEALTHY, "gyro", gyro(3.0));
+                self.put(HEALTHY, "vectors", vectors(3.0));
+            }
+            Feed::Imu => self.put(HEALTHY, "imu", imu(3.0)),
+        }
         if self.wait(Duration::from_secs(10), |r| {
             r.estimate().is_some_and(|e| e.t == 3.0)
         }) {
@@ -466,10 +530,10 @@ impl Drop for Run {
 }
 
 /// The probe's estimate on a vehicle that never saw a bad input.
-fn baseline(limits: &Map<String, Value>) -> EstimateMsg {
+fn baseline(limits: &Map<String, Value>, feed: Feed) -> EstimateMsg {
     let mut run = Run::start(limits);
-    run.init_healthy();
-    let e = run.probe().expect("the baseline probe");
+    run.init_healthy(feed);
+    let e = run.probe(feed).expect("the baseline probe");
     run.shutdown();
     e
 }
@@ -485,17 +549,18 @@ fn without_rejected(e: &EstimateMsg) -> EstimateMsg {
 }
 
 /// Runs one row; returns what did not hold.
-fn check(row: &Row, baselines: &mut HashMap<String, EstimateMsg>) -> Vec<String> {
+fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec<String> {
     let limits = row.config();
-    let key = Value::Object(limits.clone()).to_string();
+    let feed = row.feed();
+    let key = (Value::Object(limits.clone()).to_string(), feed);
     let base = baselines
         .entry(key)
-        .or_insert_with(|| baseline(&limits))
+        .or_insert_with(|| baseline(&limits, feed))
         .clone();
     let code = row.code.as_str();
     let target = row.target();
     let mut run = Run::start(&limits);
-    run.init_healthy();
+    run.init_healthy(feed);
 
     let s0 = run.estimate().expect("tracking");
     let info0 = run.engine.vehicle(HEALTHY).unwrap().info();
@@ -595,7 +660,7 @@ fn check(row: &Row, baselines: &mut HashMap<String, EstimateMsg>) -> Vec<String>
     }
 
     // The probe: the filter is the one a vehicle that never saw the row has.
-    match run.probe() {
+    match run.probe(feed) {
         Ok(p) => {
             if without_rejected(&p) != without_rejected(&base) {
                 fails.push(format!(

@@ -5,7 +5,8 @@
 //!   file is in [`EXAMPLES`].
 //! * Every example is valid under its schema, and its numbers are consistent (unit quaternions,
 //!   `w ≥ 0` in what the service sends, symmetric positive-definite covariances whose attitude diagonal
-//!   matches `sigma_deg`, observations that agree with the truth under `b = A(q) r`).
+//!   matches `sigma_deg`, observations that agree with the truth under `b = A(q) r`, IMU samples that
+//!   agree with the IMU estimate).
 //! * Every field of every Rust message (a fully populated instance, serialised) is in its schema's
 //!   `properties`, and every schema property is a field of the Rust message.
 //! * Every rejection code is in the error table of `proto/README.md` and in the schemas' enumerations.
@@ -18,8 +19,8 @@ use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
-    ImuDiagnosticsMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode, Rejection,
-    ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
+    ImuDiagnosticsMsg, ImuMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode,
+    Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;
@@ -56,8 +57,11 @@ const EXAMPLES: &[(&str, &str, RoundTrip)] = &[
         "vectors",
         round_trip::<VectorsMsg>,
     ),
+    ("imu.json", "imu", round_trip::<ImuMsg>),
+    ("imu-batch.json", "imu", round_trip::<Vec<ImuMsg>>),
     ("estimate-qpf.json", "estimate", round_trip::<EstimateMsg>),
     ("estimate-mekf.json", "estimate", round_trip::<EstimateMsg>),
+    ("estimate-imu.json", "estimate", round_trip::<EstimateMsg>),
     ("state.json", "state", round_trip::<EstimateMsg>),
     ("attitude.json", "attitude", round_trip::<AttitudeMsg>),
     ("covariance.json", "covariance", round_trip::<CovarianceMsg>),
@@ -522,26 +526,39 @@ fn full_estimate() -> EstimateMsg {
             rollbacks: 0,
             reinits: BTreeMap::from([("gate".to_string(), 1)]),
             held: 2,
-            imu: Some(ImuDiagnosticsMsg {
-                samples: 5000,
-                at_rest: false,
-                rest_samples: 1200,
-                bias_updates: 4,
-                tilt_updates: 170,
-                tilt_gated: 1,
-                heading_updates: 160,
-                mag_rejected: 10,
-                mag_disturbed: true,
-                mag_new_fields: 0,
-                mag_hard_iron_changes: 1,
-                tilt_reacquisitions: 0,
-                heading_reacquisitions: 0,
-                tilt_sigma_lp_deg: 0.3,
-                mag_norm: Some(44.5),
-                mag_dip_deg: Some(69.8),
-                mag_offset: Some([0.3, -0.2, -5.9]),
-            }),
+            imu: Some(full_imu_diagnostics()),
         },
+    }
+}
+
+fn full_imu_diagnostics() -> ImuDiagnosticsMsg {
+    ImuDiagnosticsMsg {
+        samples: 5000,
+        at_rest: false,
+        rest_samples: 1200,
+        bias_updates: 4,
+        tilt_updates: 170,
+        tilt_gated: 1,
+        heading_updates: 160,
+        mag_rejected: 10,
+        mag_disturbed: true,
+        mag_new_fields: 0,
+        mag_hard_iron_changes: 1,
+        tilt_reacquisitions: 0,
+        heading_reacquisitions: 0,
+        tilt_sigma_lp_deg: 0.3,
+        mag_norm: Some(44.5),
+        mag_dip_deg: Some(69.8),
+        mag_offset: Some([0.3, -0.2, -5.9]),
+    }
+}
+
+fn full_imu() -> ImuMsg {
+    ImuMsg {
+        t: 12.5,
+        gyr: [0.0, 1.0e-3, -2.0e-3],
+        acc: [0.1, -0.2, 9.8],
+        mag: Some([0.0, 15.6, -41.7]),
     }
 }
 
@@ -657,11 +674,14 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         bias: [1.0e-6, -2.0e-6, 3.0e-7],
     };
     let error = Rejection::new(RejectCode::OutOfOrder, "too old").to_message("attitude/sc1/gyro");
+    let imu = full_imu();
     vec![
         ("gyro", v(&gyro)),
         ("gyro", v(vec![gyro.clone(), gyro])),
         ("vectors", v(&vectors)),
         ("vectors", v(vec![vectors])),
+        ("imu", v(&imu)),
+        ("imu", v(vec![imu.clone(), imu])),
         ("estimate", v(full_estimate())),
         ("state", v(full_estimate())),
         ("attitude", v(full_estimate().attitude())),
@@ -760,6 +780,24 @@ fn the_schemas_refuse_what_the_service_refuses() {
             serde_json::json!({"sigma_deg": [1.0, 2.0]}),
         ),
         ("reset-request", serde_json::json!({"filter": "ekf"})),
+        ("imu", serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0, 0.0]})),
+        (
+            "imu",
+            serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0], "acc": [0.0, 0.0, 9.81]}),
+        ),
+        (
+            "imu",
+            serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0, 0.0], "acc": [0.0, 0.0, 9.81], "mag": [1.0, 2.0]}),
+        ),
+        (
+            "imu",
+            serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0, 0.0], "acc": [0.0, 0.0, 9.81], "omega": [0.0, 0.0, 0.0]}),
+        ),
+        (
+            "imu",
+            serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0, 0.0], "acc": [0.0, 0.0, 9.81], "mag": null}),
+        ),
+        ("imu", serde_json::json!([])),
     ];
     let limits = InputLimits::default();
     for (schema_name, value) in cases {
@@ -778,6 +816,13 @@ fn the_schemas_refuse_what_the_service_refuses() {
                 })
                 .is_err(),
             "vectors" => decode_batch::<VectorsMsg>(payload.as_bytes(), &limits)
+                .and_then(|b| {
+                    b.iter()
+                        .map(|s| s.to_domain(&limits))
+                        .collect::<Result<Vec<_>, _>>()
+                })
+                .is_err(),
+            "imu" => decode_batch::<ImuMsg>(payload.as_bytes(), &limits)
                 .and_then(|b| {
                     b.iter()
                         .map(|s| s.to_domain(&limits))
@@ -847,7 +892,12 @@ fn check_estimate(e: &EstimateMsg, at: &str, errors: &mut Vec<String>) {
 fn example_numbers_are_consistent() {
     let mut errors = Vec::new();
     let estimate = |f: &str| -> EstimateMsg { serde_json::from_value(example(f)).unwrap() };
-    for f in ["estimate-qpf.json", "estimate-mekf.json", "state.json"] {
+    for f in [
+        "estimate-qpf.json",
+        "estimate-mekf.json",
+        "estimate-imu.json",
+        "state.json",
+    ] {
         check_estimate(&estimate(f), f, &mut errors);
     }
     let reply: ResetReplyMsg = serde_json::from_value(example("reset-reply.json")).unwrap();
@@ -972,6 +1022,76 @@ fn examples_follow_the_quaternion_convention() {
     assert!((b - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12, "b = {b}");
 }
 
+/// The IMU examples agree with the conventions: `estimate-imu.json` (East-North-Up, magnetic north) sees
+/// the vertical where `imu.json`'s accelerometer points and the field's horizontal part where north is,
+/// each within 3σ of its own covariance, and its field reference is the reading's norm and dip.
+#[test]
+fn imu_examples_follow_the_conventions() {
+    let sample: ImuMsg = serde_json::from_value(example("imu.json")).unwrap();
+    let e: EstimateMsg = serde_json::from_value(example("estimate-imu.json")).unwrap();
+    assert_eq!(
+        sample.t, e.t,
+        "estimate-imu.json is the estimate at imu.json's sample"
+    );
+    let a = e.q.to_domain().unwrap().attitude_matrix();
+    let p = Matrix6::from_fn(|i, j| e.cov[i][j])
+        .fixed_view::<3, 3>(0, 0)
+        .into_owned();
+    // 1σ of the attitude error about a body axis.
+    let sigma_about = |axis: &Vector3<f64>| (axis.dot(&(p * axis))).sqrt();
+
+    let up = a * Vector3::z();
+    let acc = Vector3::from(sample.acc).normalize();
+    let tilt = up.cross(&acc);
+    let tilt_angle = tilt.norm().asin();
+    let tilt_sigma = sigma_about(&tilt.normalize());
+    assert!(
+        tilt_angle < 3.0 * tilt_sigma,
+        "tilt error {:.3}° vs 1σ {:.3}°",
+        tilt_angle.to_degrees(),
+        tilt_sigma.to_degrees()
+    );
+
+    let mag = Vector3::from(sample.mag.expect("imu.json has a magnetometer reading"));
+    let m = a.transpose() * mag;
+    let heading_error = m.x.atan2(m.y);
+    let heading_sigma = sigma_about(&up);
+    assert!(
+        heading_error.abs() < 3.0 * heading_sigma,
+        "heading error {:.3}° vs 1σ {:.3}°",
+        heading_error.to_degrees(),
+        heading_sigma.to_degrees()
+    );
+
+    let d = e
+        .diagnostics
+        .imu
+        .expect("an IMU vehicle's estimate has diagnostics.imu");
+    let norm = d.mag_norm.expect("a field reference");
+    assert!(
+        (norm / mag.norm() - 1.0).abs() < 0.01,
+        "mag_norm {norm} vs |mag| {}",
+        mag.norm()
+    );
+    let dip = (-mag.normalize().dot(&acc)).asin().to_degrees();
+    let dip_ref = d.mag_dip_deg.expect("a field reference");
+    assert!(
+        (dip - dip_ref).abs() < 0.5,
+        "mag_dip_deg {dip_ref} vs the reading's {dip}"
+    );
+    assert!(d.at_rest, "imu.json is a vehicle at rest");
+
+    // imu-batch.json turns about body z at 0.5 rad/s, sampled at 100 Hz.
+    let batch: Vec<ImuMsg> = serde_json::from_value(example("imu-batch.json")).unwrap();
+    for w in batch.windows(2) {
+        assert!((w[1].t - w[0].t - 0.01).abs() < 1e-9, "100 Hz");
+    }
+    for s in &batch {
+        assert!((s.gyr[2] - 0.5).abs() < 0.01, "turning at 0.5 rad/s");
+        assert!((Vector3::from(s.acc).norm() - 9.81).abs() < 0.1, "gravity");
+    }
+}
+
 /// The input examples pass the service's own decoding and validation.
 #[test]
 fn input_examples_are_accepted_by_the_service() {
@@ -1001,6 +1121,19 @@ fn input_examples_are_accepted_by_the_service() {
             assert!(set.t >= previous, "{f}: times go back");
             previous = set.t;
             set.to_domain(&limits)
+                .unwrap_or_else(|r| panic!("{f}: {}", r.message));
+        }
+    }
+    for f in ["imu.json", "imu-batch.json"] {
+        let batch: Vec<ImuMsg> = decode_batch(&bytes(f), &limits)
+            .unwrap_or_else(|r| panic!("{f}: {} {}", r.code.as_str(), r.message));
+        // Strictly increasing: two IMU samples at one time are a duplicate.
+        assert!(
+            batch.windows(2).all(|w| w[0].t < w[1].t),
+            "{f}: times do not increase"
+        );
+        for s in batch {
+            s.to_domain(&limits)
                 .unwrap_or_else(|r| panic!("{f}: {}", r.message));
         }
     }
@@ -1134,6 +1267,7 @@ fn required_fields_are_what_rust_always_sends() {
         .filter(|(s, _)| {
             ![
                 "vectors",
+                "imu",
                 "estimate",
                 "state",
                 "reset-request",
@@ -1171,6 +1305,14 @@ fn required_fields_are_what_rust_always_sends() {
             })
             .unwrap(),
         ),
+        (
+            "imu",
+            serde_json::to_value(ImuMsg {
+                mag: None,
+                ..full_imu()
+            })
+            .unwrap(),
+        ),
         ("estimate", serde_json::to_value(&estimate).unwrap()),
         ("state", serde_json::to_value(&estimate).unwrap()),
         (
@@ -1204,6 +1346,25 @@ fn required_fields_are_what_rust_always_sends() {
         let validator = Validator { root: &root };
         errors.extend(validator.errors(&root, value, schema_name));
         validator.compare_required(&root, value, schema_name, &mut errors);
+    }
+    // `diagnostics.imu` is optional as a whole (absent above); its own required fields are checked
+    // where each schema describes it.
+    let imu = serde_json::to_value(ImuDiagnosticsMsg {
+        mag_norm: None,
+        mag_dip_deg: None,
+        mag_offset: None,
+        ..full_imu_diagnostics()
+    })
+    .unwrap();
+    for schema_name in ["estimate", "state", "reset-reply"] {
+        let root = schema(schema_name);
+        let validator = Validator { root: &root };
+        let at = format!("{schema_name}.diagnostics.imu");
+        let sub = root
+            .pointer("/$defs/diagnostics/properties/imu")
+            .unwrap_or_else(|| panic!("{schema_name}.schema.json describes diagnostics.imu"));
+        errors.extend(validator.errors(sub, &imu, &at));
+        validator.compare_required(sub, &imu, &at, &mut errors);
     }
     fail_on(errors);
 }

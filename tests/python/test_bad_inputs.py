@@ -2,7 +2,8 @@
 
 proto/BAD_INPUTS.md ("How a row is tested") describes the setup and the checks; tests/bad_inputs.rs runs the
 same rows against an in-process engine. Rows without `config` use the shared service (each with a healthy
-vehicle of its own, switched to the MEKF by a reset before it starts); a row with `config` (overrides of
+vehicle of its own, switched to the MEKF by a reset before it starts, fed gyro samples or, for the rows of
+leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `config` (overrides of
 `service.limits`) starts a service of its own. Rows marked `known_issue` are strict xfails: the service gets
 them wrong today, and the case fails once it gets them right (remove the marker then).
 """
@@ -17,8 +18,8 @@ import pytest
 from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate, wait_until
 
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
-#: Codes decided by the vehicle's filter after the input was queued (the vehicle's `received` counts it).
-QUEUED_CODES = {"out_of_order", "duplicate", "time_jump", "not_initialized", "filter_error"}
+#: Codes decided by the vehicle after the input was queued (the vehicle's `received` counts it).
+QUEUED_CODES = {"out_of_order", "duplicate", "time_jump", "mixed_inputs", "not_initialized", "filter_error"}
 OBS = [
     '{"body": [1, 0, 0], "ref": [1, 0, 0], "sigma": 0.0001}',
     '{"body": [0, 1, 0], "ref": [0, 1, 0], "sigma": 0.0001}',
@@ -33,6 +34,16 @@ def vectors(t: float) -> str:
     return '{"t": %r, "obs": [%s, %s]}' % (float(t), OBS[0], OBS[1])
 
 
+def imu(t: float) -> str:
+    """A raw IMU sample of the setup: at rest, level, facing north (the identity attitude), the field in µT."""
+    return '{"t": %r, "gyr": [0, 0, 0], "acc": [0, 0, 9.81], "mag": [0, 15.6, -41.7]}' % float(t)
+
+
+def feed(row: dict) -> str:
+    """What the row's healthy vehicle is fed: ``gyro`` or ``imu`` (its `healthy`, else by its leaf)."""
+    return row.get("healthy", "imu" if row["leaf"] == "imu" else "gyro")
+
+
 def generate(g: dict) -> bytes:
     """``payload_gen`` (rules in proto/BAD_INPUTS.md)."""
     kind = g["kind"]
@@ -44,6 +55,8 @@ def generate(g: dict) -> bytes:
         text = "[" + ", ".join(gyro(g["t0"] + i * g["dt"]) for i in range(g["n"])) + "]"
     elif kind == "vectors_batch":
         text = "[" + ", ".join(vectors(g["t0"] + i * g["dt"]) for i in range(g["n"])) + "]"
+    elif kind == "imu_batch":
+        text = "[" + ", ".join(imu(g["t0"] + i * g["dt"]) for i in range(g["n"])) + "]"
     elif kind == "obs":
         text = '{"t": %r, "obs": [%s]}' % (float(g["t"]), ", ".join(OBS[i % 2] for i in range(g["n"])))
     elif kind == "nest":
@@ -65,9 +78,20 @@ def vehicle_row(client, vehicle):
     return next((r for r in client.vehicles() if r["vehicle"] == vehicle), None)
 
 
-def init_healthy(client, vehicle: str):
-    """The setup's healthy vehicle: the MEKF, time 1.5 s, estimate at 1 s with seq 2."""
+def init_healthy(client, vehicle: str, fed: str = "gyro"):
+    """The setup's healthy vehicle, the MEKF at time 1.5 s: fed gyro samples, its estimate at 1 s with seq 2;
+    fed IMU samples, at 1.5 s with seq 15 (one per sample from the alignment at 0.1 s)."""
     client.reset(vehicle, filter="mekf")
+    if fed == "imu":
+        for i in range(16):
+            client.put_raw(vehicle, "imu", imu(i / 10))
+
+        def aligned():
+            r = vehicle_row(client, vehicle)
+            return r is not None and (r["processed"], r["t"], r["estimates"], r["state"]) == (16, 1.5, 15, "tracking")
+
+        wait_until(aligned, 10, f"{vehicle} to start")
+        return
     client.put_raw(vehicle, "gyro", gyro(0.0))
     client.put_raw(vehicle, "vectors", vectors(0.0))
     for i in range(1, 11):
@@ -82,10 +106,13 @@ def init_healthy(client, vehicle: str):
     wait_until(ready, 10, f"{vehicle} to start")
 
 
-def probe(client, vehicle: str) -> dict:
-    """A gyro sample and a vector set at t = 3 s; the estimate they give."""
-    client.put_raw(vehicle, "gyro", gyro(3.0))
-    client.put_raw(vehicle, "vectors", vectors(3.0))
+def probe(client, vehicle: str, fed: str = "gyro") -> dict:
+    """A gyro sample and a vector set at t = 3 s (an IMU sample for an IMU vehicle); the estimate they give."""
+    if fed == "imu":
+        client.put_raw(vehicle, "imu", imu(3.0))
+    else:
+        client.put_raw(vehicle, "gyro", gyro(3.0))
+        client.put_raw(vehicle, "vectors", vectors(3.0))
 
     def done():
         try:
@@ -94,7 +121,9 @@ def probe(client, vehicle: str) -> dict:
             return False
 
     wait_until(done, 10, f"the probe's estimate of {vehicle}")
-    return client.get_state(vehicle)
+    state = client.get_state(vehicle)
+    validate("state", state)  # diagnostics.imu too, for an IMU vehicle
+    return state
 
 
 def without_rejected(estimate: dict) -> dict:
@@ -110,10 +139,17 @@ def without_rejected(estimate: dict) -> dict:
 
 
 @pytest.fixture(scope="module")
-def baseline(client):
-    """The probe's estimate on a vehicle that never saw a bad input."""
-    init_healthy(client, "bi-baseline")
-    return probe(client, "bi-baseline")
+def baselines(client):
+    """The probe's estimate on a vehicle that never saw a bad input, by feed (made when first needed)."""
+    made = {}
+
+    def get(fed: str) -> dict:
+        if fed not in made:
+            init_healthy(client, f"bi-baseline-{fed}", fed)
+            made[fed] = probe(client, f"bi-baseline-{fed}", fed)
+        return made[fed]
+
+    return get
 
 
 @pytest.fixture
@@ -147,11 +183,13 @@ def params():
 
 
 @pytest.mark.parametrize("index, row", params())
-def test_bad_input(service_for, baseline, index, row):
+def test_bad_input(service_for, baselines, index, row):
     svc, c = service_for(row)
     prefix = svc.prefix
     healthy = f"bi-h{index}"
-    init_healthy(c, healthy)
+    fed = feed(row)
+    baseline = baselines(fed)
+    init_healthy(c, healthy, fed)
     target = row.get("vehicle", healthy)
     code = row["code"]
     reset = row["leaf"] == "reset"
@@ -208,7 +246,7 @@ def test_bad_input(service_for, baseline, index, row):
 
     # The probe: the filter is that of a vehicle that never saw the row.
     try:
-        p = probe(c, healthy)
+        p = probe(c, healthy, fed)
         if without_rejected(p) != without_rejected(baseline):
             fails.append(f"the probe's estimate differs from a vehicle that never saw the row:\n{p}\n{baseline}")
         want_rejected = {code: 1} if own_input else {}
