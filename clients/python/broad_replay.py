@@ -332,6 +332,8 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
     drainer.start()
     subs = [client.subscribe_rejections(on_rejected)]
     for spec, vehicle in vehicles.items():
+        if getattr(args, "no_reset", False):
+            break  # the vehicles run the filter the service's configuration gives them
         fields = reset_fields(spec.split("#")[0], args.particles)
         if getattr(args, "reset_t", None) is not None:
             fields["t"] = args.reset_t  # re-anchors the vehicle's time (a vehicle replayed again)
