@@ -383,8 +383,22 @@ fn imu_tune_cmd(
     trials: &[attitude_service::tools::imu_study::Trial],
 ) -> Result<()> {
     use attitude_service::tools::imu_study::{objective, start_point, TuneSpec, Tuner};
-    let spec: TuneSpec = json5::from_str(&std::fs::read_to_string(spec_path)?)
+    let mut spec: TuneSpec = json5::from_str(&std::fs::read_to_string(spec_path)?)
         .map_err(|e| anyhow::anyhow!("{}: {e}", spec_path.display()))?;
+    if let Some(r) = &spec.reference {
+        let path = spec_path.parent().unwrap_or(std::path::Path::new(".")).join(r);
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        for t in trials {
+            let at = &v[&t.name];
+            if let (Some(total), Some(incl)) = (
+                at["total_rmse_deg"].as_f64(),
+                at["inclination_rmse_deg"].as_f64(),
+            ) {
+                spec.reference_scores.insert(t.name.clone(), (total, incl));
+            }
+        }
+    }
     let text = std::fs::read_to_string(&args.config)?;
     let mut tuner = Tuner::new(&args.config, &args.sets, &spec, trials, args.filter)?;
     let all: Vec<usize> = (0..trials.len()).collect();
@@ -403,8 +417,8 @@ fn imu_tune_cmd(
     eprintln!(
         "tuned on all {} trials: objective {:.4} (start {:.4}), {} evaluations",
         trials.len(),
-        objective(&spec, &tuned_scores, &all),
-        objective(&spec, &start_scores, &all),
+        objective(&spec, trials, &tuned_scores, &all),
+        objective(&spec, trials, &start_scores, &all),
         tuner.evaluations
     );
     println!("{}", serde_json::to_string_pretty(&values(&tuned))?);

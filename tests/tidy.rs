@@ -3,6 +3,7 @@
 use std::path::Path;
 
 const CORE: &[&str] = &[
+    "src/ahrs",
     "src/attitude",
     "src/sensors",
     "src/filters",

@@ -460,18 +460,33 @@ pub struct TuneSpec {
     pub tilt_weight: f64,
     pub nees_min: f64,
     pub nees_weight: f64,
+    /// Optional: a peer's RMSEs on the same trials (`{"TRIAL": {"total_rmse_deg": .., "inclination_rmse_deg":
+    /// ..}}`, a path relative to the specification) and the weight of a trial's loss against it:
+    /// `reference_weight · (max(0, ln(total/peer)) + max(0, ln(incl./peer)))` (the targets are per trial).
+    #[serde(default)]
+    pub reference: Option<String>,
+    #[serde(default)]
+    pub reference_weight: f64,
+    /// The reference's figures by trial (read by the command, not written in the specification).
+    #[serde(skip)]
+    pub reference_scores: BTreeMap<String, (f64, f64)>,
 }
 
 /// The objective over the trials `which` (indices into `scores`): the mean of
 /// `ln(total RMSE) + ln(inclination RMSE)` (the log of the geometric means, so every trial counts
 /// by its ratio, not its size) plus the mean honesty penalty.
-pub fn objective(spec: &TuneSpec, scores: &[Scores], which: &[usize]) -> f64 {
+pub fn objective(spec: &TuneSpec, trials: &[Trial], scores: &[Scores], which: &[usize]) -> f64 {
     let mut sum = 0.0;
     for &i in which {
         let s = &scores[i];
         let accuracy = s.total_rmse_deg.ln() + s.inclination_rmse_deg.ln();
-        let penalty = spec.tilt_weight * (spec.tilt_in99_min - s.tilt_in99).max(0.0)
+        let mut penalty = spec.tilt_weight * (spec.tilt_in99_min - s.tilt_in99).max(0.0)
             + spec.nees_weight * (spec.nees_min - s.tilt_nees_median).max(0.0);
+        if let Some((total, incl)) = spec.reference_scores.get(&trials[i].name) {
+            penalty += spec.reference_weight
+                * ((s.total_rmse_deg / total).ln().max(0.0)
+                    + (s.inclination_rmse_deg / incl).ln().max(0.0));
+        }
         let v = accuracy + penalty;
         sum += if v.is_finite() { v } else { 1e6 };
     }
@@ -547,7 +562,7 @@ impl<'a> Tuner<'a> {
     /// value, so the result does not depend on the order of equal candidates.
     pub fn descend(&mut self, start: &[usize], which: &[usize]) -> Result<Vec<usize>, StudyError> {
         let mut point = start.to_vec();
-        let mut best = objective(self.spec, &self.scores(&point)?, which);
+        let mut best = objective(self.spec, self.trials, &self.scores(&point)?, which);
         for _ in 0..self.spec.passes.max(1) {
             let mut changed = false;
             for p in 0..point.len() {
@@ -557,7 +572,7 @@ impl<'a> Tuner<'a> {
                     }
                     let mut candidate = point.clone();
                     candidate[p] = k;
-                    let v = objective(self.spec, &self.scores(&candidate)?, which);
+                    let v = objective(self.spec, self.trials, &self.scores(&candidate)?, which);
                     if v < best - 1e-12 {
                         best = v;
                         point = candidate;
