@@ -386,7 +386,10 @@ fn imu_tune_cmd(
     let mut spec: TuneSpec = json5::from_str(&std::fs::read_to_string(spec_path)?)
         .map_err(|e| anyhow::anyhow!("{}: {e}", spec_path.display()))?;
     if let Some(r) = &spec.reference {
-        let path = spec_path.parent().unwrap_or(std::path::Path::new(".")).join(r);
+        let path = spec_path
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join(r);
         let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         for t in trials {

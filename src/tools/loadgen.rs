@@ -268,23 +268,27 @@ pub async fn run(
             .express(true)
     };
     if options.imu_batch > 0 {
-        // An IMU vehicle aligns from its first samples (no estimate for them): half a second of
-        // samples before the clock starts, not counted.
+        // An IMU vehicle aligns from its first samples (no estimate for them): 0.2 s of samples (twice
+        // the preset's alignment) before the clock starts, not counted, put in batches of the load's
+        // size (one put of thousands of samples would overflow the vehicle's queue and be refused).
         let dt = 1.0 / (options.rate_hz * options.imu_batch as f64);
-        let n = (0.5 / dt).ceil() as usize;
+        let n = (0.2 / dt).ceil() as usize;
         for (i, v) in ids.iter().enumerate() {
             let warmup: Vec<ImuMsg> = (0..n)
                 .map(|j| imu_sample(-((n - j) as f64) * dt, i))
                 .collect();
-            session
-                .put(
-                    keys.vehicle(v, Leaf::Imu),
-                    serde_json::to_vec(&warmup).unwrap_or_default(),
-                )
-                .encoding(Encoding::APPLICATION_JSON)
-                .congestion_control(CongestionControl::Block)
-                .await?;
+            for chunk in warmup.chunks(options.imu_batch) {
+                session
+                    .put(
+                        keys.vehicle(v, Leaf::Imu),
+                        serde_json::to_vec(chunk).unwrap_or_default(),
+                    )
+                    .encoding(Encoding::APPLICATION_JSON)
+                    .congestion_control(CongestionControl::Block)
+                    .await?;
+            }
         }
+        tokio::time::sleep(Duration::from_millis(300)).await;
     }
     let period = Duration::from_secs_f64(1.0 / options.rate_hz);
     let ticks = (options.duration_s * options.rate_hz).round().max(1.0) as u64;
