@@ -12,13 +12,19 @@ For the MEKF (the preset's filter) and for qpf:average (200 particles, given by 
 so that runs A and B need no reset): a particle filter draws its particles from a seed of its vehicle id, and a reset
 starts the vehicle over, seed included.
 
+The suite replays the excerpt up to 10 s into the motion; `ATTITUDE_DETERMINISM_TRIAL=FILE.hdf5` (and
+`ATTITUDE_DETERMINISM_SECONDS=S`, 0 for the whole recording) run the same test on another recording, e.g. a full trial.
+
 Data: an excerpt of BROAD trial 16 committed in tests/data/broad (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021,
 doi:10.3390/data6070072), CC-BY-4.0.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import argparse
+import os
 import subprocess
 import sys
 import time
@@ -31,7 +37,12 @@ sys.path.insert(0, str(ROOT / "clients" / "python"))
 from attitude_client import AttitudeClient  # noqa: E402
 from broad_replay import load_trial, replay  # noqa: E402
 
-TRIAL = ROOT / "tests" / "data" / "broad" / "16_undisturbed_fast_translation_B_excerpt.hdf5"
+TRIAL = Path(
+    os.environ.get("ATTITUDE_DETERMINISM_TRIAL")
+    or ROOT / "tests" / "data" / "broad" / "16_undisturbed_fast_translation_B_excerpt.hdf5"
+)
+#: Seconds of motion replayed (after the opening rest); 0: the whole recording.
+SECONDS = float(os.environ.get("ATTITUDE_DETERMINISM_SECONDS", "10"))
 SPECS = ["mekf", "qpf:average"]
 
 
@@ -67,7 +78,7 @@ def run(client: AttitudeClient, trial: dict, batch: int, pause: float, reset_t: 
 
 def test_the_same_recording_gives_the_same_estimates(tmp_path):
     assert TRIAL.exists(), f"{TRIAL} is missing: the test data of the repository (tests/data/broad/README.md)"
-    trial = load_trial(TRIAL, 10.0)
+    trial = load_trial(TRIAL, SECONDS or None)
     n = len(trial["gyr"])
     runs = {}
     proc_a, endpoint_a = start(tmp_path, "a")
