@@ -89,30 +89,62 @@ impl fmt::Display for FilterSpec {
 )]
 pub struct ParseFilterSpecError(pub String);
 
+impl FromStr for FilterKind {
+    type Err = ParseFilterSpecError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "mekf" => Ok(FilterKind::Mekf),
+            "usque" => Ok(FilterKind::Usque),
+            "qpf" => Ok(FilterKind::Qpf),
+            _ => Err(ParseFilterSpecError(s.to_string())),
+        }
+    }
+}
+
+impl FromStr for Fiducial {
+    type Err = ParseFilterSpecError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "average" => Ok(Fiducial::Average),
+            "propagated" => Ok(Fiducial::Propagated),
+            _ => Err(ParseFilterSpecError(s.to_string())),
+        }
+    }
+}
+
+impl FilterSpec {
+    /// The one parser of filter names (a `kind` and an optional `fiducial`, as the wire and the
+    /// configuration give them): `usque` and `qpf` without a fiducial mean the averaged fiducial,
+    /// this project's default; the MEKF takes none.
+    pub fn from_parts(kind: &str, fiducial: Option<&str>) -> Result<Self, ParseFilterSpecError> {
+        let whole = || {
+            ParseFilterSpecError(match fiducial {
+                Some(f) => format!("{kind}:{f}"),
+                None => kind.to_string(),
+            })
+        };
+        let kind: FilterKind = kind.parse().map_err(|_| whole())?;
+        let fiducial = match (kind, fiducial) {
+            (FilterKind::Mekf, None) => None,
+            (FilterKind::Mekf, Some(_)) => return Err(whole()),
+            (_, None) => Some(Fiducial::Average),
+            (_, Some(f)) => Some(f.parse().map_err(|_| whole())?),
+        };
+        Ok(FilterSpec { kind, fiducial })
+    }
+}
+
 impl FromStr for FilterSpec {
     type Err = ParseFilterSpecError;
 
-    /// `usque` and `qpf` without a fiducial mean the averaged fiducial, this project's default.
+    /// `kind[:fiducial]`, see [`FilterSpec::from_parts`].
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let err = || ParseFilterSpecError(s.to_string());
-        let (kind, fid) = match s.split_once(':') {
-            Some((k, f)) => (k, Some(f)),
-            None => (s, None),
-        };
-        let kind = match kind {
-            "mekf" => FilterKind::Mekf,
-            "usque" => FilterKind::Usque,
-            "qpf" => FilterKind::Qpf,
-            _ => return Err(err()),
-        };
-        let fiducial = match (kind, fid) {
-            (FilterKind::Mekf, None) => None,
-            (FilterKind::Mekf, Some(_)) => return Err(err()),
-            (_, None | Some("average")) => Some(Fiducial::Average),
-            (_, Some("propagated")) => Some(Fiducial::Propagated),
-            _ => return Err(err()),
-        };
-        Ok(FilterSpec { kind, fiducial })
+        match s.split_once(':') {
+            Some((k, f)) => FilterSpec::from_parts(k, Some(f)),
+            None => FilterSpec::from_parts(s, None),
+        }
     }
 }
 

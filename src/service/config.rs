@@ -592,23 +592,20 @@ pub fn validate_key_prefix(p: &str) -> Result<(), String> {
 }
 
 fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, String> {
-    let kind = match raw.kind.as_str() {
-        "mekf" => FilterKind::Mekf,
-        "usque" => FilterKind::Usque,
-        "qpf" => FilterKind::Qpf,
-        other => {
-            return Err(format!(
-                "{at}.kind: unknown filter '{other}' (mekf, usque, qpf)"
-            ))
-        }
-    };
-    let fiducial = match (kind, raw.fiducial.as_str()) {
-        (FilterKind::Mekf, _) => None,
-        (_, "average") => Some(Fiducial::Average),
-        (_, "propagated") => Some(Fiducial::Propagated),
-        (_, other) => {
-            return Err(format!("{at}.fiducial: '{other}' (average, propagated)"));
-        }
+    let kind: FilterKind = raw.kind.parse().map_err(|_| {
+        format!(
+            "{at}.kind: unknown filter '{}' (mekf, usque, qpf)",
+            raw.kind
+        )
+    })?;
+    // (The MEKF has no fiducial: the configured one is ignored, the default "average" included.)
+    let fiducial = match kind {
+        FilterKind::Mekf => None,
+        _ => Some(
+            raw.fiducial
+                .parse::<Fiducial>()
+                .map_err(|_| format!("{at}.fiducial: '{}' (average, propagated)", raw.fiducial))?,
+        ),
     };
     let positive = |v: f64, name: &str| {
         if v.is_finite() && v > 0.0 {

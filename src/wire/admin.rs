@@ -1,0 +1,104 @@
+//! The simulator's truth and the administrative replies (`P/@/vehicles`, `P/@/health`).
+
+use super::QuaternionMsg;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// `P/V/truth`, published by the simulator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthMsg {
+    pub vehicle: String,
+    pub t: f64,
+    pub q: QuaternionMsg,
+    /// True gyro bias, rad/s.
+    pub bias: [f64; 3],
+}
+
+/// One row of `P/@/vehicles`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleInfoMsg {
+    pub vehicle: String,
+    /// `initializing` (waiting for a usable vector set) or `tracking`.
+    pub state: String,
+    pub filter: String,
+    pub fiducial: Option<String>,
+    /// Time of the last processed measurement, s (null before the first).
+    pub t: Option<f64>,
+    pub received: u64,
+    pub processed: u64,
+    pub rejected: u64,
+    pub estimates: u64,
+}
+
+/// `P/@/health` reply.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HealthMsg {
+    pub status: String,
+    pub version: String,
+    pub uptime_s: f64,
+    pub vehicles: usize,
+    /// Measurement samples received (a batch counts its items).
+    pub received: u64,
+    /// Samples the filters used.
+    pub processed: u64,
+    pub estimates_published: u64,
+    /// Refused inputs and requests, by code.
+    pub rejected: BTreeMap<String, u64>,
+    pub queries: u64,
+    /// Samples waiting in the vehicles' reorder windows.
+    #[serde(default)]
+    pub held: u64,
+    /// Observations refused by the innovation gate, re-initialisations and rolled-back filter steps,
+    /// summed over the vehicles.
+    #[serde(default)]
+    pub gated: u64,
+    #[serde(default)]
+    pub reinits: u64,
+    #[serde(default)]
+    pub rollbacks: u64,
+    /// Checkpointing, when a state directory is configured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoints: Option<CheckpointHealthMsg>,
+    /// This instance and its fleet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fleet: Option<FleetHealthMsg>,
+}
+
+/// `P/@/health` `fleet`: this instance's place in its fleet.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FleetHealthMsg {
+    /// `single` or `dynamic`.
+    pub mode: String,
+    pub group: String,
+    pub instance: String,
+    /// The vehicle key-expression chunk served (`*` unless statically sharded).
+    pub vehicles: String,
+    /// The live members of the group (dynamic mode; just this instance otherwise), sorted.
+    pub members: Vec<String>,
+    /// Vehicles this instance owns now.
+    pub owned: usize,
+    /// Vehicles taken over from another member, and handed to another member, since start.
+    pub takeovers: u64,
+    pub released: u64,
+    /// Inputs of other members' vehicles kept for a takeover, and their last estimates.
+    pub standby_inputs: usize,
+    pub standby_estimates: usize,
+}
+
+/// `P/@/health` `checkpoints`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointHealthMsg {
+    pub state_dir: String,
+    pub interval_s: f64,
+    /// Vehicles restored at start, and checkpoint files skipped then (corrupt or unreadable).
+    pub restored: u64,
+    pub skipped: u64,
+    /// Checkpoint files written and failed writes since start.
+    pub written: u64,
+    pub failed: u64,
+}
