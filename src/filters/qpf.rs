@@ -7,8 +7,8 @@
 //! covariance is computed and the cloud is regularised, so the quaternions never need normalising.
 //!
 //! One update:
-//! 1. fiducial: `average` → the weighted average of the propagated particles (prior weights);
-//!    `propagated` → the previous estimate propagated with `ω̃ − β̂`;
+//! 1. fiducial: the chart starts at the previous estimate propagated with `ω̃ − β̂` (for `average`
+//!    the weighted average is first taken after the weights change, in step 3);
 //! 2. log-likelihood of every particle; progressive correction applies it in stages `λ_s` with
 //!    `λ_s (max − min) log L ≤ T` (Musso, Oudjane & Le Gland 2001), resampling and regularising between
 //!    stages;
