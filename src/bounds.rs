@@ -1,4 +1,4 @@
-//! Accuracy limits: the yardstick for every filter (ALGORITHMS.md §7).
+//! Accuracy limits: the yardstick for every filter (docs/algorithms.md §5).
 
 use crate::attitude::Quaternion;
 use crate::filters::mekf::{joseph_update, process_noise, transition_matrix};

@@ -1,4 +1,4 @@
-//! Pins the conventions of ALGORITHMS.md §1 and the test vectors of §9 with known numbers.
+//! Pins the conventions of docs/algorithms.md §1 and its test vectors (§7) with known numbers.
 
 use attitude_service::attitude::{
     q_method, weighted_average, AverageAccumulator, AverageError, Grp, Quaternion,

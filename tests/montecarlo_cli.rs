@@ -242,7 +242,10 @@ fn sweep_reports_one_row_per_particle_count() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// Issue targets of the particle filter with the averaged fiducial (seeded; 20 runs each).
+/// The targets of the particle filter with the averaged fiducial (seeded; 20 runs each): on
+/// magnetometer-leo from 50°/50°/160°, at least 95% of the runs converge (more than with the MEKF) and
+/// the RMS error is within 1.5× the PCRB per axis; on star-tracker every run converges, within
+/// 0.8–1.5× the PCRB, with an ANEES inside its 95% interval.
 #[test]
 fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
     let out = out_dir("qpf-mag");

@@ -1,4 +1,5 @@
-//! The identities of ALGORITHMS.md §1 and the invariances of the attitude math, as property tests.
+//! The identities of docs/algorithms.md §1 and the invariances of the attitude math, as property
+//! tests.
 
 use attitude_service::attitude::{weighted_average, Grp, Quaternion};
 use nalgebra::{Matrix3, Vector3};

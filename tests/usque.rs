@@ -1,6 +1,6 @@
-//! USQUE (ALGORITHMS.md §4) with both fiducials: the propagation against the kinematics and the MEKF's
-//! covariance recursion, consistency and convergence on a simulated problem, the error contract and the
-//! wiring into `build_filter`.
+//! USQUE (docs/algorithms.md §3) with both fiducials: the propagation against the kinematics and the
+//! MEKF's covariance recursion, consistency and convergence on a simulated problem, the error contract
+//! and the wiring into `build_filter`.
 
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::mekf::{process_noise, transition_matrix};
@@ -53,7 +53,8 @@ fn block_rel_err(a: &Matrix6<f64>, b: &Matrix6<f64>, r: usize, c: usize) -> f64 
 
 #[test]
 fn q_bar_matches_test_vector_d() {
-    // TV-D: standard gyro, Δt = 10: USQUE Q̄ attitude 4.999916666667e-13, bias 5.0e-19.
+    // TV-D (docs/algorithms.md §7): standard gyro, Δt = 10: USQUE Q̄ attitude 4.999916666667e-13,
+    // bias 5.0e-19.
     let q = process_noise_bar(&GyroNoise::standard(), 10.0);
     assert!(
         (q[(0, 0)] - 4.999916666667e-13).abs() < 1e-24,

@@ -1,8 +1,9 @@
-//! Weighted quaternion average (Markley, Cheng, Crassidis & Oshman 2007; ALGORITHMS.md §6).
+//! Weighted quaternion average (Markley, Cheng, Crassidis & Oshman 2007; docs/algorithms.md §4).
 //!
 //! The MMSE average of weighted unit quaternions is the unit eigenvector of the largest eigenvalue of
-//! `M = Σ wᵢ qᵢ qᵢᵀ` (it maximises `qᵀ M q` on the unit sphere; seed note Eqs. 3–4). It is invariant to
-//! the sign of each `qᵢ` and is a unit quaternion by construction: no brute-force normalisation.
+//! `M = Σ wᵢ qᵢ qᵢᵀ` (it maximises `qᵀ M q` on the unit sphere; Chang 2014, Eqs. 3–4). It is
+//! invariant to the sign of each `qᵢ` and is a unit quaternion by construction: no brute-force
+//! normalisation.
 //!
 //! nalgebra's `UnitQuaternion::mean_of` is deliberately not used: it is unweighted, can panic and
 //! scrambles components (upstream PR #1430).
@@ -43,7 +44,7 @@ pub struct QuaternionAverage {
 
 /// Relative eigen-gap below which the largest eigenvector is numerically undecidable (equal eigenvalues
 /// to rounding). Deliberately tiny: a small but real gap (a ring-shaped posterior) still gives an average
-/// on the ring, which measured better than falling back (ALGORITHMS.md §6).
+/// on the ring, which measured better than falling back (docs/algorithms.md §3, QPF fiducials).
 const UNDECIDABLE_RELATIVE_GAP: f64 = 1e-12;
 const EIGEN_EPS: f64 = 1e-15;
 const EIGEN_MAX_ITERATIONS: usize = 200;

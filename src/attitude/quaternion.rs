@@ -30,7 +30,7 @@ pub fn half_angle_terms(theta_sq: f64) -> (f64, f64) {
 ///
 /// # Conventions
 ///
-/// * Shuster / Crassidis / Markley convention (ALGORITHMS.md §1): the attitude matrix maps
+/// * Shuster / Crassidis / Markley convention (docs/algorithms.md §1): the attitude matrix maps
 ///   reference-frame (inertial) coordinates to body coordinates, `b = A(q) r`, with
 ///   `A(q) = (q4² − ϱᵀϱ) I + 2 ϱϱᵀ − 2 q4 [ϱ×]`.
 /// * Composition [`Quaternion::compose`] (`p ⊗ q`) satisfies `A(p ⊗ q) = A(p) A(q)`: the rotation on
@@ -176,12 +176,12 @@ impl Quaternion {
     }
 
     /// `Ω(ω) q`: kinematic propagation over `dt_s` with a constant body rate `omega_rad_s`
-    /// (ALGORITHMS.md §2). Equal to `δq(ω Δt) ⊗ q`; safe at zero rate.
+    /// (docs/algorithms.md §1, kinematics). Equal to `δq(ω Δt) ⊗ q`; safe at zero rate.
     pub fn propagate(&self, omega_rad_s: &Vector3<f64>, dt_s: f64) -> Quaternion {
         Quaternion::from_rotation_vector(&(omega_rad_s * dt_s)).compose(self)
     }
 
-    /// The matrix `Ω(ω)` of ALGORITHMS.md §2 (scalar-last 4×4) so that `q⁺ = Ω q⁻`.
+    /// The matrix `Ω(ω)` of docs/algorithms.md §1 (scalar-last 4×4) so that `q⁺ = Ω q⁻`.
     pub fn omega_matrix(omega_rad_s: &Vector3<f64>, dt_s: f64) -> Matrix4<f64> {
         let dq = Quaternion::from_rotation_vector(&(omega_rad_s * dt_s));
         let psi = dq.vector();

@@ -1,4 +1,4 @@
-//! Generalized Rodrigues parameters (GRP) of an error quaternion (ALGORITHMS.md §4).
+//! Generalized Rodrigues parameters (GRP) of an error quaternion (docs/algorithms.md §1).
 //!
 //! `δp = f δϱ / (a + δq4)`, with inverse
 //! `δq4 = (−a‖δp‖² + f √(f² + (1 − a²)‖δp‖²)) / (f² + ‖δp‖²)`, `δϱ = (a + δq4) δp / f`.

@@ -1,6 +1,7 @@
 //! Attitude from one set of vector observations: Davenport's q-method and its covariance.
 //!
-//! Used to initialise a filter when no attitude is given, and as a test oracle (TV-E).
+//! Used to initialise a filter when no attitude is given, and as a test oracle (test vector TV-E,
+//! docs/algorithms.md §7).
 
 use super::average::top_eigenpair;
 use super::quaternion::{skew, Quaternion};
@@ -25,7 +26,7 @@ pub enum WahbaError {
 pub struct WahbaSolution {
     pub q: Quaternion,
     /// Covariance of the body-frame small-angle error, rad²:
-    /// `P = [Σ σⱼ⁻² (‖bⱼ‖² I − bⱼ bⱼᵀ)]⁻¹` with `bⱼ = A(q) rⱼ` (the static bound of ALGORITHMS.md §7).
+    /// `P = [Σ σⱼ⁻² (‖bⱼ‖² I − bⱼ bⱼᵀ)]⁻¹` with `bⱼ = A(q) rⱼ` (static bound: docs/algorithms.md §5).
     pub covariance: Matrix3<f64>,
 }
 

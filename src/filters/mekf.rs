@@ -1,5 +1,5 @@
 //! Multiplicative extended Kalman filter (Crassidis & Junkins, *Optimal Estimation of Dynamic
-//! Systems*, ch. 7; ALGORITHMS.md §3). The baseline every other filter is compared against.
+//! Systems*, ch. 7; docs/algorithms.md §3). The baseline every other filter is compared against.
 //!
 //! Error state `x = [δα; Δβ]` (rad, rad/s), `δq = q ⊗ q̂⁻¹ ≈ [δα/2; 1]`.
 

@@ -38,12 +38,12 @@ pub enum FilterKind {
 }
 
 /// How the fiducial quaternion that links the global quaternion and the local error space is chosen
-/// (the subject of the seed note).
+/// (Chang 2014; docs/algorithms.md §3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Fiducial {
-    /// The previous estimate propagated like an EKF (seed Eq. 1; original USQUE and QPF).
+    /// The previous estimate propagated like an EKF (Chang 2014, Eq. 1; original USQUE and QPF).
     Propagated,
-    /// The MMSE weighted quaternion average of the sigma points or particles (seed Eqs. 3–6).
+    /// The MMSE weighted quaternion average of the sigma points or particles (Chang 2014, Eqs. 3–6).
     Average,
 }
 

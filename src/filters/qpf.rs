@@ -1,14 +1,14 @@
 //! Quaternion particle filter with a minimal local-error (MRP) representation (Cheng & Crassidis 2010),
-//! with the fiducial quaternion of the seed note: either the previous estimate propagated like an EKF
-//! (seed Eq. 1) or the MMSE weighted average of the particles (seed Eqs. 3–6). ALGORITHMS.md §5.
+//! with the fiducial quaternion of Chang 2014: either the previous estimate propagated like an EKF
+//! (its Eq. 1) or the MMSE weighted average of the particles (its Eqs. 3–6). docs/algorithms.md §3.
 //!
 //! Particle `i` is a global quaternion `qᵢ`, a bias `βᵢ` and a log-weight. Its local state is
 //! `xᵢ = [δpᵢ; βᵢ] ∈ R⁶` with `δpᵢ = MRP(qᵢ ⊗ q_fid⁻¹)`: the unconstrained space in which the particle
 //! covariance is computed and the cloud is regularised, so the quaternions never need normalising.
 //!
 //! One update:
-//! 1. fiducial: `average` → the weighted average of the propagated particles (prior weights);
-//!    `propagated` → the previous estimate propagated with `ω̃ − β̂`;
+//! 1. fiducial: the chart starts at the previous estimate propagated with `ω̃ − β̂` (for `average`
+//!    the weighted average is first taken after the weights change, in step 3);
 //! 2. log-likelihood of every particle; progressive correction applies it in stages `λ_s` with
 //!    `λ_s (max − min) log L ≤ T` (Musso, Oudjane & Le Gland 2001), resampling and regularising between
 //!    stages;
@@ -25,7 +25,7 @@
 //! separated from the next to rounding (a perfectly diffuse cloud, or non-finite input), the filter keeps
 //! the propagated fiducial for that step and counts it in `diagnostics.fiducial_fallbacks`. A small but
 //! real gap is not a reason to fall back: for a ring-shaped posterior the average still lies on the ring,
-//! and falling back there measured worse (ALGORITHMS.md §6).
+//! and falling back there measured worse (docs/algorithms.md §3).
 
 use super::{
     Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind,
@@ -48,7 +48,7 @@ pub enum Kernel {
     Epanechnikov,
 }
 
-/// QPF tuning. Defaults are the values that measured well (ALGORITHMS.md §5).
+/// QPF tuning. Defaults are the values that measured well (docs/algorithms.md §3, tuning).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct QpfOptions {
     pub kernel: Kernel,
@@ -251,8 +251,8 @@ pub struct Qpf {
     /// `locals_and_moments` (reused by the regularisation that may follow).
     #[serde(skip)]
     local: [Vec<f64>; 6],
-    /// The previous estimate propagated with `ω̃ − β̂` (seed Eq. 1): the `propagated` fiducial, the sign
-    /// reference of the average, and the fallback when the average is undecidable.
+    /// The previous estimate propagated with `ω̃ − β̂` (Chang 2014, Eq. 1): the `propagated`
+    /// fiducial, the sign reference of the average, and the fallback when the average is undecidable.
     q_prop: Quaternion,
     q_hat: Quaternion,
     beta_hat: Vector3<f64>,

@@ -1,7 +1,6 @@
-//! UnScented QUaternion Estimator, USQUE (Crassidis & Markley 2003; ALGORITHMS.md §4), with both
+//! UnScented QUaternion Estimator, USQUE (Crassidis & Markley 2003; docs/algorithms.md §3), with both
 //! fiducials: the propagated central sigma point (the original USQUE) and the MMSE weighted average of
-//! the propagated sigma-point quaternions (the modified USQUE of Chang, Hu & Chang 2014, the seed's
-//! ref. [8]).
+//! the propagated sigma-point quaternions (the modified USQUE of Chang, Hu & Chang 2014).
 //!
 //! Local/global structure: the state is `x = [δp; β]` (`n = 6`), `δp` the generalized Rodrigues
 //! parameters ([`Grp`], default `a = 1, f = 4`) of the error `δq = q ⊗ q_ref⁻¹` about a reference
@@ -12,15 +11,15 @@
 //!
 //! The filter always holds `(q_ref, x̂, P)` with the estimate `q̂ = GRP⁻¹(δp̂) ⊗ q_ref`:
 //!
-//! * After an update (and at start) `q_ref = q̂` and `δp̂ = 0` (the reset of §4 step 7).
+//! * After an update (and at start) `q_ref = q̂` and `δp̂ = 0` (the reset of step 7).
 //! * A propagation ends in the state `(q_ref = q_fid, x̂⁻, P⁻)` *without* folding `δp̂⁻` into the
 //!   quaternion: `P⁻` is the covariance of the sigma points in the chart about `q_fid`, and `x̂⁻` is their
 //!   mean in that chart, so nothing is approximated. The propagated sigma points `q⁻(i)`, `χ(i)` are kept
-//!   for the update (§4 step 6).
+//!   for the update (step 6).
 //! * A further propagation before any update draws its sigma points from `(x̂⁻, P⁻ + Q̄)` in the same
 //!   chart: `χ(0) = x̂⁻` (its attitude part is not zero then), `q⁺(i) = GRP⁻¹(χ^δp(i)) ⊗ q_ref`. The central
 //!   point is therefore always the current estimate `q̂`, so the `Propagated` fiducial is exactly the
-//!   previous estimate propagated like an EKF (seed Eq. 1). The kept sigma points are replaced.
+//!   previous estimate propagated like an EKF (Chang 2014, Eq. 1). The kept sigma points are replaced.
 //! * An update with no propagation since the last update (two observation sets at the same time, or an
 //!   observation set at the start time) redraws the sigma points from `(x̂, P)` about `q_ref` (no `Q̄`:
 //!   no time passed) and uses `q_fid = q_ref`. No average is taken there: the points are symmetric in the
@@ -32,7 +31,7 @@
 //!
 //! # Units of `Q̄` and of the initial covariance
 //!
-//! `Q̄` (§4) and the initial attitude sigma are physical (rad); the attitude block is divided by `k²`,
+//! `Q̄` and the initial attitude sigma are physical (rad); the attitude block is divided by `k²`,
 //! `k = grp.small_angle_factor()` (`δα ≈ k δp`), to express it in GRP units. For the default
 //! `a = 1, f = 4`, `k = 1` and this changes nothing.
 
@@ -298,7 +297,7 @@ impl FilterCore for Usque {
         }
     }
 
-    /// §4 steps 1–5 over `dt_s` with the measured rate `ω̃`.
+    /// Steps 1–5 of docs/algorithms.md §3 over `dt_s` with the measured rate `ω̃`.
     fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
         if !(dt_s.is_finite() && dt_s > 0.0 && all_finite(omega_meas_rad_s.iter())) {
             return Err(FilterError::InvalidMeasurement(
@@ -401,7 +400,7 @@ impl FilterCore for Usque {
         Ok(())
     }
 
-    /// §4 steps 6–7 with the stacked observations (`3m` rows), in one batch.
+    /// Steps 6–7 of docs/algorithms.md §3 with the stacked observations (`3m` rows), in one batch.
     ///
     /// With `L = chol(P^vv)`, `M = L⁻¹ (P^xy)ᵀ` and `z = L⁻¹ ν`: `K ν = Mᵀ z`, `K P^vv Kᵀ = Mᵀ M` and the
     /// NIS is `zᵀ z`, so the gain is never formed and `P^vv` never inverted.

@@ -1,4 +1,4 @@
-//! The Farrenkopf gyro model (ALGORITHMS.md §2): `ω̃ = ω + β + η_v`, `β̇ = η_u`.
+//! The Farrenkopf gyro model (docs/algorithms.md §2): `ω̃ = ω + β + η_v`, `β̇ = η_u`.
 
 use nalgebra::Vector3;
 use rand::Rng;

@@ -1,5 +1,5 @@
 //! Vector-observation sensor models for the simulator: a star camera over a synthetic catalogue, a sun
-//! sensor and a three-axis magnetometer (ALGORITHMS.md §2, "Vector observation": `b̃ = A(q) r + v`,
+//! sensor and a three-axis magnetometer (docs/algorithms.md §2: `b̃ = A(q) r + v`,
 //! `v ~ N(0, σ² I₃)`, never renormalised).
 //!
 //! Numeric core: no I/O and no panics on any input (non-finite inputs give non-finite or empty outputs).

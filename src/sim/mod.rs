@@ -1,5 +1,6 @@
 //! The simulator: truth trajectories, environment models (orbit, geomagnetic field, sun) and the
-//! standard scenarios of ALGORITHMS.md §8, producing the measurement streams the filters consume.
+//! standard scenarios (docs/montecarlo.md, "Scenarios"), producing the measurement streams the filters
+//! consume.
 //!
 //! Numeric core: no I/O, no printing, no panics on any input. Every run is a pure function of its
 //! parameters and a seed (bit-identical for the same `(params, seed)`).

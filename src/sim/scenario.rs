@@ -1,4 +1,4 @@
-//! The standard scenarios (ALGORITHMS.md §8) and the simulator that turns a scenario and a seed into a
+//! The standard scenarios (docs/montecarlo.md) and the simulator that turns a scenario and a seed into a
 //! truth trajectory, a time-ordered measurement stream and the filter's initial estimate.
 //!
 //! Reproducibility: a run is drawn from `Xoshiro256PlusPlus::seed_from_u64(seed)`, split into
@@ -234,7 +234,7 @@ fn all_finite_positive(field: &'static str, v: &Vector3<f64>) -> Result<(), Scen
 }
 
 impl ScenarioParams {
-    /// The standard parameters of a scenario (ALGORITHMS.md §8).
+    /// The standard parameters of a scenario (listed in docs/montecarlo.md, "Scenarios").
     pub fn default_for(name: ScenarioName) -> Self {
         let orbit = CircularOrbit::default();
         let base = ScenarioParams {

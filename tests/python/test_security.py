@@ -1,4 +1,4 @@
-"""Security (issue 7, item 4): the shipped examples of `config/security/` run as they are, with
+"""Security: the shipped examples of `config/security/` run as they are, with
 certificates made by `openssl` at test time (in a temporary directory, removed after a clean run) and
 the placeholder paths and ports substituted.
 
