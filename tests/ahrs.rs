@@ -11,7 +11,7 @@ use attitude_service::filters::{build_filter, FilterConfig, GyroErrors, InitialS
 use attitude_service::sensors::imu::{heading_basis, heading_jacobian};
 use attitude_service::sensors::{GyroNoise, ImuSample, Measurement};
 use attitude_service::service::config::{self, Policy, VehicleFilterConfig};
-use attitude_service::service::vehicle::{Event, VehicleState};
+use attitude_service::service::vehicle::{Event, ResetRequest, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use rand::SeedableRng;
@@ -140,14 +140,14 @@ fn feed(v: &mut VehicleState, p: &Policy, steps: &[Step]) -> Vec<EstimateMsg> {
         v.on_measurement(Measurement::Imu(s.sample), 0.0, p, &mut events)
             .unwrap();
         for e in events.drain(..) {
-            if let Event::Estimate(m) = e {
-                out.push(m);
+            if let Event::Estimate(p) = e {
+                out.push(EstimateMsg::from(&p));
             }
         }
     }
     v.flush_all(p, &mut events);
     out.extend(events.into_iter().filter_map(|e| match e {
-        Event::Estimate(m) => Some(m),
+        Event::Estimate(p) => Some(EstimateMsg::from(&p)),
         _ => None,
     }));
     out
@@ -653,6 +653,7 @@ fn an_overconfident_tilt_is_reacquired() {
         "t": 1.0,
     }))
     .unwrap();
+    let req = ResetRequest::try_from(&req).unwrap();
     // The tilt error 15 s in (the heading, pulled away while the tilt was wrong, comes back slowly).
     let run = |p: &Policy| {
         let mut v = VehicleState::new("wrong", f.clone());
@@ -716,8 +717,10 @@ fn the_same_input_gives_the_same_output() {
         // Again, after a reset that re-anchors the time before the recording.
         let mut v = VehicleState::new("same", config.clone());
         feed(&mut v, &p, &steps[..500]);
-        let req: attitude_service::wire::ResetMsg =
-            serde_json::from_value(serde_json::json!({"t": -1.0})).unwrap();
+        let req = ResetRequest {
+            t_s: Some(-1.0),
+            ..ResetRequest::default()
+        };
         v.on_reset(&req, &config, &p, &mut Vec::new()).unwrap();
         let again = feed(&mut v, &p, &steps);
         assert_eq!(first.len(), again.len(), "{spec}");

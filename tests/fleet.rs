@@ -9,7 +9,7 @@ use attitude_service::sensors::GyroNoise;
 use attitude_service::service::config::{override_fleet, parse, ServiceConfig};
 use attitude_service::service::engine::{Engine, Inbound};
 use attitude_service::service::fleet::owner;
-use attitude_service::service::vehicle::VehicleState;
+use attitude_service::service::vehicle::{TakeoverSeed, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix6, Vector3};
 use std::collections::{BTreeMap, BTreeSet};
@@ -85,11 +85,12 @@ fn a_vehicle_taken_over_continues_from_the_estimate() {
     let mut e: EstimateMsg =
         serde_json::from_str(include_str!("../proto/examples/estimate-qpf.json")).unwrap();
     e.diagnostics.particles = Some(500);
-    let state = VehicleState::take_over("sc1", &base, &e, None).unwrap();
+    let seed = TakeoverSeed::try_from(&e).unwrap();
+    let state = VehicleState::take_over("sc1", &base, &seed, None).unwrap();
     assert_eq!(state.seq(), e.seq);
     assert_eq!(state.last_t(), Some(e.t));
     assert_eq!(state.particles(), Some(500));
-    let now = state.estimate().unwrap();
+    let now = EstimateMsg::from(&state.estimate().unwrap());
     assert_eq!(now.filter, e.filter);
     assert_eq!(now.diagnostics.reinits.get("takeover"), Some(&1));
     let dq = Quaternion::new(now.q.x, now.q.y, now.q.z, now.q.w)
@@ -103,7 +104,7 @@ fn a_vehicle_taken_over_continues_from_the_estimate() {
     // A broken estimate is refused, not trusted.
     let mut broken = e.clone();
     broken.cov[0][0] = f64::NAN;
-    assert!(VehicleState::take_over("sc1", &base, &broken, None).is_err());
+    assert!(TakeoverSeed::try_from(&broken).is_err());
 }
 
 type Outputs = Arc<Mutex<Vec<(String, Vec<u8>)>>>;

@@ -275,11 +275,12 @@ fn the_sensor_models_load_and_wrong_sensor_options_are_refused() {
     }
 }
 
-fn estimates(events: &[Event]) -> Vec<&EstimateMsg> {
+/// The estimates among `events`, as the service publishes them.
+fn estimates(events: &[Event]) -> Vec<EstimateMsg> {
     events
         .iter()
         .filter_map(|e| match e {
-            Event::Estimate(m) => Some(m),
+            Event::Estimate(p) => Some(EstimateMsg::from(p)),
             _ => None,
         })
         .collect()
@@ -325,7 +326,7 @@ fn a_vehicle_applies_the_sensor_models_and_counts_suspensions() {
         .unwrap();
     }
     v.flush_all(&policy, &mut out);
-    let last = *estimates(&out).last().unwrap();
+    let last = estimates(&out).last().unwrap().clone();
     let mag = &last.diagnostics.gate["mag"];
     // 50 disturbed sets plus the hold-off of 0.5 s after the last one.
     assert!(

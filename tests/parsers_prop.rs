@@ -28,10 +28,11 @@ use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config::{ServiceConfig, VehicleFilterConfig};
-use attitude_service::service::vehicle::VehicleState;
+use attitude_service::service::vehicle::{ResetRequest, VehicleState};
 use attitude_service::wire::{
     decode_batch, decode_one, EstimateMsg, GyroMsg, InputLimits, ObservationMsg, PerAxis,
-    QuaternionMsg, RejectCode, Rejection, ResetMsg, VectorsMsg, MAX_SENSOR_NAME, MIN_VECTOR_NORM,
+    QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, MAX_SENSOR_NAME,
+    MIN_VECTOR_NORM,
 };
 use nalgebra::{Matrix6, Vector3};
 use proptest::prelude::*;
@@ -685,7 +686,7 @@ fn snapshot(v: &VehicleState) -> String {
         v.last_t().map(f64::to_bits),
         v.seq(),
         v.estimate()
-            .map(|e| serde_json::to_string(&e).unwrap_or_default())
+            .map(|e| serde_json::to_string(&EstimateMsg::from(&e)).unwrap_or_default())
             .unwrap_or_default()
     )
 }
@@ -701,6 +702,18 @@ fn check_estimate_msg(e: &EstimateMsg) -> Result<(), TestCaseError> {
     check_covariance(&p)?;
     prop_assert!(e.t.is_finite());
     Ok(())
+}
+
+/// A reset request as the service applies it: its values validated at the edge, then applied by the
+/// vehicle (which refuses what its filter or the limits forbid).
+fn apply_reset(
+    v: &mut VehicleState,
+    req: &ResetMsg,
+    base: &VehicleFilterConfig,
+) -> Result<ResetReplyMsg, Rejection> {
+    let request = ResetRequest::try_from(req)?;
+    v.on_reset(&request, base, &policy(), &mut Vec::new())
+        .map(ResetReplyMsg::from)
 }
 
 /// Reset requests (the payload of `P/V/reset` is decoded with `decode_one`; the vehicle validates
@@ -737,18 +750,16 @@ fn check_reset_payload(payload: &[u8], limits: &InputLimits) -> Result<(), TestC
         t: Some(10.0),
         ..ResetMsg::default()
     };
-    prop_assert!(tracking
-        .on_reset(&start, &base, &policy(), &mut Vec::new())
-        .is_ok());
+    prop_assert!(apply_reset(&mut tracking, &start, &base).is_ok());
     for mut v in [fresh, tracking] {
         let before = snapshot(&v);
-        match v.on_reset(&req, &base, &policy(), &mut Vec::new()) {
+        match apply_reset(&mut v, &req, &base) {
             Ok(reply) => {
                 if let Some(e) = &reply.estimate {
                     check_estimate_msg(e)?;
                 }
                 if let Some(e) = v.estimate() {
-                    check_estimate_msg(&e)?;
+                    check_estimate_msg(&EstimateMsg::from(&e))?;
                 }
                 prop_assert_eq!(reply.state == "tracking", v.is_tracking());
             }
@@ -1097,7 +1108,7 @@ proptest! {
         // And the same request does the same to two identical vehicles.
         let base = vehicle_config();
         let (mut a, mut b) = (VehicleState::new("v1", base.clone()), VehicleState::new("v1", base.clone()));
-        let (ra, rb) = (a.on_reset(&req, &base, &policy(), &mut Vec::new()), b.on_reset(&back, &base, &policy(), &mut Vec::new()));
+        let (ra, rb) = (apply_reset(&mut a, &req, &base), apply_reset(&mut b, &back, &base));
         prop_assert_eq!(ra.is_ok(), rb.is_ok());
         prop_assert_eq!(snapshot(&a), snapshot(&b));
         check_reset_payload(&payload, &InputLimits::default())?;

@@ -12,7 +12,7 @@ use super::config::ServiceConfig;
 use super::fleet::{owner, FleetMode};
 use super::keys::{Keys, Leaf};
 use super::persist::{self, SavedCounters};
-use super::vehicle::{Event, Stream, VehicleState};
+use super::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
 use crate::sensors::Measurement;
 use crate::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
@@ -39,7 +39,7 @@ pub struct Inbound {
 enum Input {
     Measurement(Measurement),
     Reset(
-        ResetMsg,
+        ResetRequest,
         tokio::sync::oneshot::Sender<Result<ResetReplyMsg, Rejection>>,
     ),
     /// Release what the reorder window holds beyond its wall-time limit.
@@ -107,7 +107,7 @@ pub struct Vehicle {
 impl Vehicle {
     fn new(id: &str, state: VehicleState, counters: SavedCounters) -> Self {
         let info = info_of(&state);
-        let snapshot = state.estimate().map(Arc::new);
+        let snapshot = state.estimate().map(|p| Arc::new(EstimateMsg::from(&p)));
         let v = Vehicle {
             id: id.to_string(),
             inbox: Mutex::new(VecDeque::new()),
@@ -810,7 +810,8 @@ impl Engine {
                         _ => None,
                     })
                     .reduce(|a, b| if b.t_s >= a.t_s { b } else { a });
-                match VehicleState::take_over(id, base, e, last_gyro) {
+                let seed = TakeoverSeed::try_from(e.as_ref());
+                match seed.and_then(|seed| VehicleState::take_over(id, base, &seed, last_gyro)) {
                     Ok(state) => {
                         let newer: Vec<Measurement> =
                             measurements.into_iter().filter(|m| m.t_s() > t0).collect();
@@ -871,22 +872,20 @@ impl Engine {
         req: ResetMsg,
     ) -> Result<tokio::sync::oneshot::Receiver<Result<ResetReplyMsg, Rejection>>, Rejection> {
         validate_vehicle_id(vehicle)?;
+        // Validated once, here; what depends on the vehicle's filter is checked where it is applied.
+        let request = ResetRequest::try_from(&req)?;
+        request.check(&self.config.policy)?;
         if self.vehicle(vehicle).is_none() {
-            // A refused reset must not create the vehicle: try it on a fresh state first.
-            let config = self.config.filter_for(vehicle).clone();
-            VehicleState::new(vehicle, config.clone()).on_reset(
-                &req,
-                &config,
-                &self.config.policy,
-                &mut Vec::new(),
-            )?;
+            // A refused reset must not create the vehicle: a new vehicle runs its configured filter.
+            let config = self.config.filter_for(vehicle);
+            request.config_for(config, config)?;
         }
         let v = self.get_or_create(vehicle)?;
         let (tx, rx) = tokio::sync::oneshot::channel();
         v.inbox
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .push_back(Input::Reset(req, tx));
+            .push_back(Input::Reset(request, tx));
         self.schedule(&v);
         Ok(rx)
     }
@@ -926,13 +925,15 @@ impl Engine {
                         self.handle(v, &state, &mut events);
                         // (A refused reset is counted by the query handler that answers it.)
                         refresh_info(v, &state);
-                        if let Ok(r) = &result {
+                        let result = result.map(|outcome| {
+                            let reply = ResetReplyMsg::from(outcome);
                             *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) =
-                                r.estimate.clone().map(Arc::new);
-                            if let Some(e) = &r.estimate {
+                                reply.estimate.clone().map(Arc::new);
+                            if let Some(e) = &reply.estimate {
                                 self.publish_estimate(v, e.clone());
                             }
-                        }
+                            reply
+                        });
                         let _ = reply.send(result);
                     }
                 }
@@ -969,10 +970,10 @@ impl Engine {
                 Event::Rejected(stream, r) => {
                     self.reject(&v.id, &self.stream_key(&v.id, stream), &r)
                 }
-                Event::Estimate(e) => {
+                Event::Estimate(p) => {
                     // What a subscriber sees must agree with P/@/vehicles at once.
                     refresh_info(v, state);
-                    self.publish_estimate(v, e);
+                    self.publish_estimate(v, EstimateMsg::from(&p));
                 }
             }
         }

@@ -18,7 +18,7 @@ use crate::sensors::{ImuSample, Measurement};
 use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
 use crate::service::vehicle::{Event, VehicleState};
 use crate::study::broad::{score, Sample, Scores};
-use crate::wire::ImuDiagnosticsMsg;
+use crate::wire::{EstimateMsg, ImuDiagnosticsMsg};
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -219,7 +219,9 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
     let mut take = |events: &mut Vec<Event>, run: &mut Run| {
         for e in events.drain(..) {
             match e {
-                Event::Estimate(msg) => {
+                Event::Estimate(p) => {
+                    // (As the service publishes it: what a user of the service would score.)
+                    let msg = EstimateMsg::from(&p);
                     run.published += 1;
                     // Estimates come in time order: find the sample of this time.
                     while next < trial.samples.len() && trial.samples[next].t_s < msg.t - 1e-9 {

@@ -4,6 +4,7 @@
 use super::{RejectCode, Rejection};
 use crate::attitude::Quaternion;
 use crate::filters::{Estimate, FilterSpec};
+use crate::service::vehicle::{GateCounts, ImuDiagnostics, Published};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -259,4 +260,56 @@ pub struct CovarianceMsg {
     pub t: f64,
     pub cov: [[f64; 6]; 6],
     pub sigma_deg: [f64; 3],
+}
+
+impl From<&GateCounts> for GateCountsMsg {
+    fn from(c: &GateCounts) -> Self {
+        GateCountsMsg {
+            accepted: c.accepted,
+            gated: c.gated,
+            norm_gated: c.norm_gated,
+            disturbed: c.disturbed,
+        }
+    }
+}
+
+impl From<&ImuDiagnostics> for ImuDiagnosticsMsg {
+    fn from(d: &ImuDiagnostics) -> Self {
+        let c = &d.counts;
+        ImuDiagnosticsMsg {
+            samples: c.samples,
+            at_rest: c.at_rest,
+            rest_samples: c.rest_samples,
+            bias_updates: c.bias_updates,
+            tilt_updates: c.tilt_updates,
+            tilt_gated: c.tilt_gated,
+            heading_updates: c.heading_updates,
+            mag_rejected: c.mag_rejected,
+            mag_disturbed: c.mag_disturbed,
+            mag_new_fields: c.mag_new_fields,
+            mag_hard_iron_changes: c.mag_hard_iron_changes,
+            tilt_reacquisitions: c.tilt_reacquisitions,
+            heading_reacquisitions: c.heading_reacquisitions,
+            tilt_sigma_lp_deg: c.tilt_sigma_lp_rad.to_degrees(),
+            mag_norm: d.field.map(|f| f.norm),
+            mag_dip_deg: d.field.map(|f| f.dip_rad.to_degrees()),
+            mag_offset: d.field.map(|f| [f.offset[0], f.offset[1], f.offset[2]]),
+        }
+    }
+}
+
+impl From<&Published> for EstimateMsg {
+    /// The estimate and the vehicle's diagnostics (`diagnostics.rejected` is the service's to fill).
+    fn from(p: &Published) -> Self {
+        let mut msg =
+            EstimateMsg::from_domain(&p.vehicle, &p.spec, &p.estimate, p.seq, p.particles);
+        let d = &mut msg.diagnostics;
+        d.gate = p.gate.iter().map(|(k, c)| (k.clone(), c.into())).collect();
+        d.consecutive_gated = p.consecutive_gated;
+        d.rollbacks = p.rollbacks;
+        d.reinits = p.reinits.clone();
+        d.held = p.held;
+        d.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
+        msg
+    }
 }

@@ -1,7 +1,9 @@
 //! `P/V/reset`: the request and its reply.
 
-use super::{EstimateMsg, QuaternionMsg};
-use nalgebra::Vector3;
+use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
+use crate::filters::{Fiducial, FilterKind, FilterSpec};
+use crate::service::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
+use nalgebra::{Matrix6, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// A sigma given as one number for every axis or three.
@@ -63,4 +65,130 @@ pub struct ResetReplyMsg {
     pub particles: Option<usize>,
     /// The new estimate when the reset gave an attitude; null while initialising.
     pub estimate: Option<EstimateMsg>,
+}
+
+impl TryFrom<&ResetMsg> for ResetRequest {
+    type Error = Rejection;
+
+    /// Every value of the request on its own: known names, particles in range, a unit quaternion,
+    /// finite values, positive 1σ, a time within the contract's range.
+    fn try_from(m: &ResetMsg) -> Result<Self, Rejection> {
+        let bad = |code: RejectCode, m: String| Err(Rejection::new(code, m));
+        let filter = match m.filter.as_deref() {
+            None => None,
+            Some(k) => match k.parse::<FilterKind>() {
+                Ok(kind) => Some(kind),
+                Err(_) => {
+                    return bad(
+                        RejectCode::BadRequest,
+                        format!("filter '{k}': expected mekf, usque or qpf"),
+                    )
+                }
+            },
+        };
+        let fiducial = match m.fiducial.as_deref() {
+            None => None,
+            Some(f) => match f.parse::<Fiducial>() {
+                Ok(fid) => Some(fid),
+                Err(_) => {
+                    return bad(
+                        RejectCode::BadRequest,
+                        format!("fiducial '{f}': expected average or propagated"),
+                    )
+                }
+            },
+        };
+        if let Some(n) = m.particles {
+            if !(2..=MAX_PARTICLES).contains(&n) {
+                return bad(
+                    RejectCode::BadRequest,
+                    format!("particles must be in 2..={MAX_PARTICLES}, got {n}"),
+                );
+            }
+        }
+        let q = m.q.map(|q| q.to_domain()).transpose()?;
+        let sigma_deg = m.sigma_deg.map(|s| s.to_vector());
+        if let Some(s) = sigma_deg {
+            if !s.iter().all(|x| x.is_finite()) {
+                return bad(RejectCode::NonFinite, "sigma_deg must be finite".into());
+            }
+            if !s.iter().all(|x| *x > 0.0 && *x <= 360.0) {
+                return bad(RejectCode::BadSigma, "sigma_deg must be in (0, 360]".into());
+            }
+        }
+        let bias = m.bias.map(Vector3::from);
+        if bias.is_some_and(|b| !b.iter().all(|x| x.is_finite())) {
+            return bad(RejectCode::NonFinite, "bias must be finite".into());
+        }
+        let bias_sigma = m.bias_sigma.map(|s| s.to_vector());
+        if let Some(s) = bias_sigma {
+            if !s.iter().all(|x| x.is_finite()) {
+                return bad(RejectCode::NonFinite, "bias_sigma must be finite".into());
+            }
+            if !s.iter().all(|x| *x > 0.0) {
+                return bad(RejectCode::BadSigma, "bias_sigma must be positive".into());
+            }
+        }
+        if let Some(t) = m.t {
+            if !t.is_finite() {
+                return bad(RejectCode::NonFinite, "t must be finite".into());
+            }
+            if t.abs() > MAX_TIME_S {
+                return bad(
+                    RejectCode::OutOfRange,
+                    format!("t = {t} s is beyond ±{MAX_TIME_S:e} s"),
+                );
+            }
+        }
+        Ok(ResetRequest {
+            filter,
+            fiducial,
+            particles: m.particles,
+            q,
+            sigma_att_rad: sigma_deg.map(|s| s * std::f64::consts::PI / 180.0),
+            bias_rad_s: bias,
+            bias_sigma_rad_s: bias_sigma,
+            t_s: m.t,
+        })
+    }
+}
+
+impl From<ResetOutcome> for ResetReplyMsg {
+    fn from(o: ResetOutcome) -> Self {
+        ResetReplyMsg {
+            vehicle: o.vehicle,
+            state: if o.tracking {
+                "tracking"
+            } else {
+                "initializing"
+            }
+            .into(),
+            filter: o.spec.kind.as_str().into(),
+            fiducial: o.spec.fiducial.map(|f| f.as_str().into()),
+            particles: o.particles,
+            estimate: o.estimate.as_ref().map(EstimateMsg::from),
+        }
+    }
+}
+
+impl TryFrom<&EstimateMsg> for TakeoverSeed {
+    type Error = Rejection;
+
+    /// The last estimate another instance published, as the start of a takeover.
+    fn try_from(e: &EstimateMsg) -> Result<Self, Rejection> {
+        let bad = |m: String| Rejection::new(RejectCode::BadRequest, m);
+        let spec = FilterSpec::from_parts(&e.filter, e.fiducial.as_deref())
+            .map_err(|err| bad(format!("estimate of {}: {err}", e.vehicle)))?;
+        TakeoverSeed {
+            t_s: e.t,
+            q: e.q.to_domain()?,
+            bias_rad_s: Vector3::from(e.bias),
+            covariance: Matrix6::from_fn(|i, j| e.cov[i][j]),
+            spec,
+            particles: e.diagnostics.particles,
+            seq: e.seq,
+        }
+        .validated()
+        .map_err(|m| bad(format!("estimate of {}: {m}", e.vehicle)))
+    }
 }

@@ -13,19 +13,23 @@ use super::config::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
-    build_filter, is_spd, AttitudeFilter, Estimate, Fiducial, FilterError, FilterKind, FilterSpec,
+    build_filter, is_spd, AttitudeFilter, Estimate, FilterError, FilterKind, FilterSpec,
     InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
 use crate::sensors::imu::{SensorState, Verdict};
 use crate::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
-use crate::wire::{
-    EstimateMsg, GateCountsMsg, ImuDiagnosticsMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
-};
+use crate::wire::{RejectCode, Rejection};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
+
+mod output;
+mod reset;
+
+pub use output::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};
+pub use reset::{ResetRequest, TakeoverSeed};
 
 /// Attitude 1σ used by a reset that gives `q` without `sigma_deg`.
 pub const DEFAULT_RESET_SIGMA_DEG: f64 = 1.0;
@@ -72,7 +76,7 @@ pub enum Event {
     /// A released sample was refused by the filter (the filter is as it was before it).
     Rejected(Stream, Rejection),
     /// A new estimate to publish on `P/V/estimate`.
-    Estimate(EstimateMsg),
+    Estimate(Published),
 }
 
 enum Slot {
@@ -146,7 +150,7 @@ pub struct VehicleState {
     /// `(t, fingerprint)` of recently accepted samples per stream.
     recent: [VecDeque<(f64, u64)>; STREAMS],
     jump: Option<JumpCandidate>,
-    gate: BTreeMap<String, GateCountsMsg>,
+    gate: BTreeMap<String, GateCounts>,
     consecutive_gated: u32,
     consecutive_failures: u32,
     rollbacks: u64,
@@ -218,27 +222,16 @@ fn fingerprint(m: &Measurement) -> u64 {
 }
 
 /// The IMU pipeline's diagnostics as published.
-fn imu_diagnostics(a: &Ahrs) -> ImuDiagnosticsMsg {
-    let c = a.counts();
-    let reference = a.field_reference();
-    ImuDiagnosticsMsg {
-        samples: c.samples,
-        at_rest: c.at_rest,
-        rest_samples: c.rest_samples,
-        bias_updates: c.bias_updates,
-        tilt_updates: c.tilt_updates,
-        tilt_gated: c.tilt_gated,
-        heading_updates: c.heading_updates,
-        mag_rejected: c.mag_rejected,
-        mag_disturbed: c.mag_disturbed,
-        mag_new_fields: c.mag_new_fields,
-        mag_hard_iron_changes: c.mag_hard_iron_changes,
-        tilt_reacquisitions: c.tilt_reacquisitions,
-        heading_reacquisitions: c.heading_reacquisitions,
-        tilt_sigma_lp_deg: c.tilt_sigma_lp_rad.to_degrees(),
-        mag_norm: reference.map(|((_, n, _), _)| n),
-        mag_dip_deg: reference.map(|((_, _, d), _)| d.to_degrees()),
-        mag_offset: reference.map(|(_, o)| [o[0], o[1], o[2]]),
+fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
+    ImuDiagnostics {
+        counts: a.counts().clone(),
+        field: a
+            .field_reference()
+            .map(|((_, norm, dip_rad), offset)| FieldReference {
+                norm,
+                dip_rad,
+                offset,
+            }),
     }
 }
 
@@ -323,32 +316,33 @@ impl VehicleState {
         }
     }
 
-    fn message(&self, e: &Estimate) -> EstimateMsg {
-        let mut msg = match &self.ahrs {
+    /// The estimate `e` as published, with the vehicle's diagnostics.
+    fn published(&self, e: &Estimate) -> Published {
+        let mut estimate = e.clone();
+        if let Some(a) = &self.ahrs {
             // An IMU vehicle's estimate carries the time-stamp uncertainty too (crate::ahrs).
-            Some(a) => {
-                let mut e = e.clone();
-                let extra = a.published_attitude_covariance();
-                let mut block = e.covariance.fixed_view_mut::<3, 3>(0, 0);
-                block += extra;
-                EstimateMsg::from_domain(&self.id, &self.spec(), &e, self.seq, self.particles())
-            }
-            None => EstimateMsg::from_domain(&self.id, &self.spec(), e, self.seq, self.particles()),
-        };
-        let d = &mut msg.diagnostics;
-        d.gate = self.gate.clone();
-        d.consecutive_gated = self.consecutive_gated;
-        d.rollbacks = self.rollbacks;
-        d.reinits = self.reinits.clone();
-        d.held = self.held.len();
-        d.imu = self.ahrs.as_ref().map(imu_diagnostics);
-        msg
+            let mut block = estimate.covariance.fixed_view_mut::<3, 3>(0, 0);
+            block += a.published_attitude_covariance();
+        }
+        Published {
+            vehicle: self.id.clone(),
+            estimate,
+            spec: self.spec(),
+            particles: self.particles(),
+            seq: self.seq,
+            gate: self.gate.clone(),
+            consecutive_gated: self.consecutive_gated,
+            rollbacks: self.rollbacks,
+            reinits: self.reinits.clone(),
+            held: self.held.len(),
+            imu: self.ahrs.as_ref().map(imu_diagnostics),
+        }
     }
 
     /// The current estimate, if the vehicle is tracking.
-    pub fn estimate(&self) -> Option<EstimateMsg> {
+    pub fn estimate(&self) -> Option<Published> {
         match &self.slot {
-            Slot::Tracking(filter) => Some(self.message(&filter.estimate())),
+            Slot::Tracking(filter) => Some(self.published(&filter.estimate())),
             Slot::Initializing => None,
         }
     }
@@ -356,7 +350,7 @@ impl VehicleState {
     /// Publishes `e` (already checked healthy) and remembers it as the last good state.
     fn emit(&mut self, e: Estimate, out: &mut Vec<Event>) {
         self.seq += 1;
-        out.push(Event::Estimate(self.message(&e)));
+        out.push(Event::Estimate(self.published(&e)));
         self.last_good = Some(e);
     }
 
@@ -721,7 +715,7 @@ impl VehicleState {
     }
 
     /// The gate counts of sensor `name` (`other` beyond the per-vehicle limit of names).
-    fn counts(&mut self, name: Option<&str>, policy: &Policy) -> &mut GateCountsMsg {
+    fn counts(&mut self, name: Option<&str>, policy: &Policy) -> &mut GateCounts {
         let name = name.unwrap_or(UNNAMED);
         let key =
             if self.gate.contains_key(name) || self.gate.len() < policy.max_sensors_per_vehicle {
@@ -843,63 +837,6 @@ impl VehicleState {
             }
         }
         r
-    }
-
-    /// Starts a vehicle from the last estimate another instance published for it (a fleet takeover):
-    /// its mean and full covariance (a particle filter draws its particles from them), the filter it
-    /// ran, its time and its estimate count, so subscribers see `seq` continue. `last_gyro` is the
-    /// last gyro sample at or before the estimate's time: its rate is held from there. Counted in
-    /// `diagnostics.reinits.takeover`.
-    pub fn take_over(
-        id: &str,
-        base: &VehicleFilterConfig,
-        e: &EstimateMsg,
-        last_gyro: Option<GyroSample>,
-    ) -> Result<Self, Rejection> {
-        let bad = |m: String| Rejection::new(RejectCode::BadRequest, m);
-        let spec_text = match &e.fiducial {
-            Some(f) => format!("{}:{f}", e.filter),
-            None => e.filter.clone(),
-        };
-        let spec: FilterSpec = spec_text
-            .parse()
-            .map_err(|_| bad(format!("estimate of {id}: unknown filter '{spec_text}'")))?;
-        let q = e.q.to_domain()?;
-        let covariance = nalgebra::Matrix6::from_fn(|i, j| e.cov[i][j]);
-        let bias = Vector3::from(e.bias);
-        if !(e.t.is_finite() && bias.iter().all(|b| b.is_finite()) && is_spd(&covariance)) {
-            return Err(bad(format!(
-                "estimate of {id}: time, bias and covariance must be finite, the covariance positive definite"
-            )));
-        }
-        let mut config = base.clone();
-        config.filter.spec = spec;
-        if spec.kind == FilterKind::Qpf {
-            if let Some(n) = e.diagnostics.particles {
-                // (Bounded like a reset's: the estimate arrived over the network.)
-                config.filter.particles = n.clamp(2, MAX_PARTICLES);
-            }
-        }
-        let mut state = VehicleState::new(id, config);
-        let sigma = |i: usize| covariance[(i, i)].sqrt();
-        state.start(InitialState {
-            t_s: Some(e.t),
-            q,
-            sigma_att_rad: Vector3::new(sigma(0), sigma(1), sigma(2)),
-            bias_rad_s: bias,
-            bias_sigma_rad_s: Vector3::new(sigma(3), sigma(4), sigma(5)),
-            uniform_attitude: false,
-            covariance: Some(covariance),
-        })?;
-        state.last_gyro = last_gyro;
-        state.feed_held_rate(e.t)?;
-        state.seq = e.seq;
-        state.last_t = Some(e.t);
-        state.count_reinit("takeover");
-        if let Slot::Tracking(filter) = &state.slot {
-            state.last_good = Some(filter.estimate());
-        }
-        Ok(state)
     }
 
     fn count_reinit(&mut self, reason: &str) {
@@ -1065,191 +1002,5 @@ impl VehicleState {
             covariance: None,
         })?;
         self.feed_held_rate(set.t_s)
-    }
-
-    /// Applies a reset request (already parsed); refuses invalid parameters without changing anything.
-    /// Samples still in the reorder window arrived before the reset and are used first.
-    pub fn on_reset(
-        &mut self,
-        req: &ResetMsg,
-        base: &VehicleFilterConfig,
-        policy: &Policy,
-        out: &mut Vec<Event>,
-    ) -> Result<ResetReplyMsg, Rejection> {
-        let bad = |code: RejectCode, m: String| Err(Rejection::new(code, m));
-        let mut config = self.config.clone();
-        if let Some(kind) = &req.filter {
-            let spec: FilterSpec = match kind.as_str() {
-                "mekf" | "usque" | "qpf" => {
-                    kind.parse()
-                        .map_err(|e: crate::filters::ParseFilterSpecError| {
-                            Rejection::new(RejectCode::BadRequest, e.to_string())
-                        })?
-                }
-                other => {
-                    return bad(
-                        RejectCode::BadRequest,
-                        format!("filter '{other}': expected mekf, usque or qpf"),
-                    )
-                }
-            };
-            config.filter.spec.kind = spec.kind;
-            if spec.kind == FilterKind::Mekf {
-                config.filter.spec.fiducial = None;
-            } else if config.filter.spec.fiducial.is_none() {
-                config.filter.spec.fiducial = base.filter.spec.fiducial.or(Some(Fiducial::Average));
-            }
-            if spec.kind != FilterKind::Qpf && config.init == InitMode::Uniform {
-                config.init = InitMode::Vectors;
-            }
-        }
-        if let Some(f) = &req.fiducial {
-            let fid = match f.as_str() {
-                "average" => Fiducial::Average,
-                "propagated" => Fiducial::Propagated,
-                other => {
-                    return bad(
-                        RejectCode::BadRequest,
-                        format!("fiducial '{other}': expected average or propagated"),
-                    )
-                }
-            };
-            if config.filter.spec.kind == FilterKind::Mekf {
-                return bad(RejectCode::BadRequest, "the MEKF has no fiducial".into());
-            }
-            config.filter.spec.fiducial = Some(fid);
-        }
-        if let Some(n) = req.particles {
-            if !(2..=MAX_PARTICLES).contains(&n) {
-                return bad(
-                    RejectCode::BadRequest,
-                    format!("particles must be in 2..={MAX_PARTICLES}, got {n}"),
-                );
-            }
-            config.filter.particles = n;
-        }
-        let q = req.q.map(|q| q.to_domain()).transpose()?;
-        let sigma_deg = req.sigma_deg.map(|s| s.to_vector());
-        if let Some(s) = sigma_deg {
-            if !s.iter().all(|x| x.is_finite()) {
-                return bad(RejectCode::NonFinite, "sigma_deg must be finite".into());
-            }
-            if !s.iter().all(|x| *x > 0.0 && *x <= 360.0) {
-                return bad(RejectCode::BadSigma, "sigma_deg must be in (0, 360]".into());
-            }
-        }
-        let bias = match req.bias {
-            Some(b) if !b.iter().all(|x| x.is_finite()) => {
-                return bad(RejectCode::NonFinite, "bias must be finite".into())
-            }
-            Some(b) if Vector3::from(b).norm() > policy.max_rate_rad_s => {
-                return bad(
-                    RejectCode::OutOfRange,
-                    format!(
-                        "|bias| must not exceed limits.max_rate_rad_s = {} rad/s",
-                        policy.max_rate_rad_s
-                    ),
-                )
-            }
-            Some(b) => Vector3::from(b),
-            None => Vector3::zeros(),
-        };
-        let bias_sigma = match req.bias_sigma.map(|s| s.to_vector()) {
-            Some(s) if !s.iter().all(|x| x.is_finite()) => {
-                return bad(RejectCode::NonFinite, "bias_sigma must be finite".into())
-            }
-            Some(s) if !s.iter().all(|x| *x > 0.0) => {
-                return bad(RejectCode::BadSigma, "bias_sigma must be positive".into())
-            }
-            Some(s) if s.amax() > policy.max_rate_rad_s => {
-                return bad(
-                    RejectCode::OutOfRange,
-                    format!(
-                        "bias_sigma must not exceed limits.max_rate_rad_s = {} rad/s",
-                        policy.max_rate_rad_s
-                    ),
-                )
-            }
-            Some(s) => s,
-            None => config.init_bias_sigma_rad_s,
-        };
-        if let Some(t) = req.t {
-            if !t.is_finite() {
-                return bad(RejectCode::NonFinite, "t must be finite".into());
-            }
-            if t.abs() > crate::wire::MAX_TIME_S {
-                return bad(
-                    RejectCode::OutOfRange,
-                    format!("t = {t} s is beyond ±{:e} s", crate::wire::MAX_TIME_S),
-                );
-            }
-        }
-        // Everything is valid: use what arrived before the reset, then apply it.
-        self.flush_all(policy, out);
-        let previous = std::mem::replace(&mut self.config, config);
-        // A reset starts the vehicle over: its filters draw the seeds of a new vehicle, so the same
-        // inputs after a reset give the same estimates as into a new vehicle.
-        self.generation = 0;
-        match q {
-            Some(q) => {
-                let sigma = sigma_deg.unwrap_or(Vector3::repeat(DEFAULT_RESET_SIGMA_DEG))
-                    * std::f64::consts::PI
-                    / 180.0;
-                let initial = InitialState {
-                    t_s: req.t.or(self.last_t),
-                    q,
-                    sigma_att_rad: sigma,
-                    bias_rad_s: bias,
-                    bias_sigma_rad_s: bias_sigma,
-                    uniform_attitude: false,
-                    covariance: None,
-                };
-                if let Err(e) = self.start(initial) {
-                    self.config = previous;
-                    return Err(e);
-                }
-            }
-            None => self.slot = Slot::Initializing,
-        }
-        if let Some(t) = req.t {
-            // A reset with a time re-anchors the vehicle's clock (the way back after a jump).
-            self.last_t = Some(t);
-            self.newest = [None; STREAMS];
-            self.first_t = None;
-            self.recent = std::array::from_fn(|_| VecDeque::new());
-        }
-        // The IMU pipeline starts again, and the vehicle may switch between P/V/gyro and P/V/imu.
-        self.ahrs = None;
-        self.gyro_feed = None;
-        self.last_imu_estimate_t = None;
-        self.jump = None;
-        self.consecutive_gated = 0;
-        self.consecutive_failures = 0;
-        self.last_good = None;
-        let estimate = match &self.slot {
-            Slot::Tracking(filter) => {
-                let e = filter.estimate();
-                let mut events = Vec::new();
-                self.emit(e, &mut events);
-                events.into_iter().find_map(|ev| match ev {
-                    Event::Estimate(e) => Some(e),
-                    _ => None,
-                })
-            }
-            Slot::Initializing => None,
-        };
-        Ok(ResetReplyMsg {
-            vehicle: self.id.clone(),
-            state: if self.is_tracking() {
-                "tracking"
-            } else {
-                "initializing"
-            }
-            .into(),
-            filter: self.spec().kind.as_str().into(),
-            fiducial: self.spec().fiducial.map(|f| f.as_str().into()),
-            particles: self.particles(),
-            estimate,
-        })
     }
 }

@@ -1,0 +1,242 @@
+//! Golden checkpoints: files written once by an earlier build (`tests/data/checkpoints/`) must be read
+//! back by every later build, and written back byte for byte the same. A change of the checkpoint
+//! format fails here instead of silently orphaning the checkpoints of a running service: bump
+//! `persist::VERSION`, keep the old files (a checkpoint of another version is refused with a clear
+//! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`), and
+//! add the new version's files with
+//!
+//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test checkpoint_golden
+//!
+//! Two vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
+//! low-passes, rest detector and field model) and an MEKF fed gyro and named vector sensors (gate
+//! counts, the sensor models' state).
+
+use attitude_service::attitude::Quaternion;
+use attitude_service::sensors::{
+    Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
+};
+use attitude_service::service::config::{self, Policy, VehicleFilterConfig};
+use attitude_service::service::persist::{self, SavedCounters};
+use attitude_service::service::vehicle::{Event, VehicleState};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+const VERSION: u32 = 3;
+
+fn dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/checkpoints")
+}
+
+fn preset() -> (VehicleFilterConfig, Policy) {
+    let c = config::parse(include_str!("../config/imu.json5"), "config/imu.json5").unwrap();
+    (c.service.default_filter.clone(), c.service.policy.clone())
+}
+
+fn truth(t: f64) -> Quaternion {
+    Quaternion::from_rotation_vector(&Vector3::new(0.2 * t.sin(), 0.1 * t, 0.3 * (0.5 * t).cos()))
+}
+
+/// A slowly turning body seen by an IMU at 100 Hz (noise-free: the state is what matters here).
+fn imu(k: usize) -> ImuSample {
+    let t = k as f64 * 0.01;
+    let (q0, q1) = (truth(t - 0.01), truth(t));
+    let w = q0.inverse().compose(&q1).to_rotation_vector() / 0.01;
+    let a = q1.attitude_matrix();
+    let field = Vector3::new(0.0, 20.0, -40.0);
+    ImuSample {
+        t_s: t,
+        gyr_rad_s: w,
+        acc_m_s2: a * Vector3::new(0.0, 0.0, 9.81),
+        mag: Some(a * field + Vector3::new(3.0, -2.0, 1.0) * (k % 3) as f64 * 0.01),
+    }
+}
+
+fn gyro(k: usize) -> Measurement {
+    let t = k as f64 * 0.1;
+    let w = truth(t)
+        .inverse()
+        .compose(&truth(t + 0.1))
+        .to_rotation_vector()
+        / 0.1;
+    Measurement::Gyro(GyroSample {
+        t_s: t,
+        omega_body_rad_s: w + Vector3::new(1e-4, -2e-4, 5e-5),
+    })
+}
+
+fn vectors(k: usize) -> Measurement {
+    let t = k as f64 * 0.1;
+    let a = truth(t).attitude_matrix();
+    let obs = |r: Vector3<f64>, sensor: &str, sigma: f64| VectorObservation {
+        body: a * r,
+        reference: r,
+        sigma,
+        sensor: Some(sensor.into()),
+        aspect: Aspect::Full,
+    };
+    let mut observations = vec![
+        obs(Vector3::new(0.0, 0.0, 9.81), "acc", 0.5),
+        obs(Vector3::new(0.0, 20.0, -40.0), "mag", 3.0),
+        obs(Vector3::new(1.0, 2.0, 3.0).normalize(), "star", 1e-3),
+    ];
+    if k % 7 == 3 {
+        // An outlier for the gate.
+        observations[2].body = -observations[2].body;
+    }
+    Measurement::Vectors(ObservationSet {
+        t_s: t,
+        observations,
+    })
+}
+
+/// The vehicle of golden file `name` after its first `n` inputs, and the inputs after them.
+fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
+    let (mut f, mut p) = preset();
+    let inputs: Vec<Measurement> = match name {
+        "qpf-imu" => {
+            f.filter.spec = "qpf:average".parse().unwrap();
+            f.filter.particles = 64;
+            (1..=400).map(|k| Measurement::Imu(imu(k))).collect()
+        }
+        "mekf-vectors" => {
+            // The defaults, with an accelerometer and a magnetometer modelled (their state is saved).
+            let text = include_str!("../config/default.json5").replace(
+                "    sensors: {},",
+                r#"    sensors: { acc: { kind: "gravity" }, mag: { kind: "field", heading_only: true } },"#,
+            );
+            let c = config::parse(&text, "default with sensor models").unwrap();
+            assert!(!c.service.policy.sensor_models.is_empty());
+            f = c.service.default_filter.clone();
+            p = c.service.policy.clone();
+            (0..60).flat_map(|k| [gyro(k), vectors(k)]).collect()
+        }
+        _ => unreachable!(),
+    };
+    let mut v = VehicleState::new(&format!("golden-{name}"), f);
+    let (first, rest) = inputs.split_at(inputs.len() / 2);
+    let mut events = Vec::new();
+    for m in first {
+        let _ = v.on_measurement(m.clone(), 0.0, &p, &mut events);
+    }
+    // (Nothing held: a restored window's wall times are reset, which a byte comparison would see.)
+    v.flush_all(&p, &mut events);
+    (v, p, rest.to_vec())
+}
+
+fn counters() -> SavedCounters {
+    SavedCounters {
+        received: 123,
+        processed: 120,
+        rejected: 3,
+        rejected_by_code: BTreeMap::from([("duplicate".to_string(), 3)]),
+    }
+}
+
+fn continue_with(v: &mut VehicleState, p: &Policy, inputs: &[Measurement]) -> usize {
+    let mut events = Vec::new();
+    for m in inputs {
+        let _ = v.on_measurement(m.clone(), 0.0, p, &mut events);
+    }
+    v.flush_all(p, &mut events);
+    events
+        .iter()
+        .filter(|e| matches!(e, Event::Estimate(_)))
+        .count()
+}
+
+const NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
+
+#[test]
+fn golden_checkpoints_read_back_and_write_back_the_same() {
+    let write = std::env::var_os("ATTITUDE_WRITE_GOLDEN").is_some();
+    for name in NAMES {
+        let path = dir().join(format!("v{VERSION}-{name}.ckpt"));
+        if write {
+            let (v, _, _) = vehicle(name);
+            std::fs::create_dir_all(dir()).unwrap();
+            std::fs::write(&path, persist::encode(&v, &counters()).unwrap()).unwrap();
+        }
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e}; the golden checkpoints are part of the repository",
+                path.display()
+            )
+        });
+        let c = persist::decode(&bytes).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e}. The checkpoint format changed: bump persist::VERSION and add this \
+                 version's golden files (see the header of tests/checkpoint_golden.rs)",
+                path.display()
+            )
+        });
+        assert_eq!(c.state.id(), format!("golden-{name}"));
+        assert_eq!(c.counters, counters());
+        assert!(c.state.is_tracking(), "{name}");
+        assert!(c.state.seq() > 0, "{name}");
+        assert_eq!(
+            persist::encode(&c.state, &c.counters).unwrap(),
+            bytes,
+            "{name}: written back differently: the format changed (see the header of this file)"
+        );
+        // The restored vehicle goes on: its estimates continue from where it stopped.
+        let (_, p, rest) = vehicle(name);
+        let mut v = c.state;
+        let seq = v.seq();
+        let published = continue_with(&mut v, &p, &rest);
+        assert!(published > 0, "{name}");
+        assert_eq!(v.seq(), seq + published as u64, "{name}");
+        let e = v.estimate().unwrap().estimate;
+        assert!(
+            e.q.is_finite() && e.covariance.iter().all(|x| x.is_finite()),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn a_checkpoint_restored_continues_like_the_vehicle_that_wrote_it() {
+    for name in NAMES {
+        let (mut a, p, rest) = vehicle(name);
+        let mut b = persist::decode(&persist::encode(&a, &counters()).unwrap())
+            .unwrap()
+            .state;
+        continue_with(&mut a, &p, &rest);
+        continue_with(&mut b, &p, &rest);
+        assert_eq!(a.estimate(), b.estimate(), "{name}");
+    }
+}
+
+#[test]
+fn checkpoints_of_another_version_are_refused() {
+    let bytes = std::fs::read(dir().join(format!("v{VERSION}-qpf-imu.ckpt"))).unwrap();
+    for other in [VERSION - 1, VERSION + 1] {
+        let mut b = bytes.clone();
+        b[8..12].copy_from_slice(&other.to_le_bytes());
+        let e = persist::decode(&b)
+            .err()
+            .expect("another version is refused");
+        assert_eq!(
+            e,
+            format!("format version {other}, this service reads {VERSION}")
+        );
+    }
+    // And through the directory loader: reported and skipped, the good ones restored.
+    let tmp = std::env::temp_dir().join(format!("golden-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let mut old = bytes.clone();
+    old[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
+    std::fs::write(tmp.join("golden-old.ckpt"), old).unwrap();
+    std::fs::write(tmp.join("golden-qpf-imu.ckpt"), &bytes).unwrap();
+    let (good, bad) = persist::load_dir(&tmp).unwrap();
+    std::fs::remove_dir_all(&tmp).unwrap();
+    assert_eq!(good.len(), 1);
+    assert_eq!(bad.len(), 1);
+    assert!(
+        bad[0]
+            .to_string()
+            .contains("format version 2, this service reads 3"),
+        "{}",
+        bad[0]
+    );
+}
