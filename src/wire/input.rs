@@ -272,8 +272,77 @@ fn decode_value(payload: &[u8], limits: &InputLimits) -> Result<serde_json::Valu
             format!("payload is not UTF-8: {e}"),
         )
     })?;
-    serde_json::from_str(text)
-        .map_err(|e| Rejection::new(RejectCode::InvalidJson, format!("payload is not JSON: {e}")))
+    match serde_json::from_str::<Strict>(text) {
+        Ok(Strict(v)) => Ok(v),
+        // (A duplicate key is well-formed JSON the contract refuses: a shape error.)
+        Err(e) if e.is_data() => Err(Rejection::new(RejectCode::BadRequest, e.to_string())),
+        Err(e) => Err(Rejection::new(
+            RejectCode::InvalidJson,
+            format!("payload is not JSON: {e}"),
+        )),
+    }
+}
+
+/// A JSON value parsed with every object's keys unique: JSON allows a key twice and
+/// `serde_json::Value` would keep the last; the contract refuses it (`bad_request`).
+struct Strict(serde_json::Value);
+
+impl<'de> serde::Deserialize<'de> for Strict {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::{Error, MapAccess, SeqAccess, Visitor};
+        use serde_json::Value;
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Strict;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a JSON value")
+            }
+            fn visit_bool<E: Error>(self, b: bool) -> Result<Strict, E> {
+                Ok(Strict(Value::Bool(b)))
+            }
+            fn visit_i64<E: Error>(self, n: i64) -> Result<Strict, E> {
+                Ok(Strict(Value::from(n)))
+            }
+            fn visit_u64<E: Error>(self, n: u64) -> Result<Strict, E> {
+                Ok(Strict(Value::from(n)))
+            }
+            fn visit_f64<E: Error>(self, n: f64) -> Result<Strict, E> {
+                Ok(Strict(Value::from(n)))
+            }
+            fn visit_str<E: Error>(self, s: &str) -> Result<Strict, E> {
+                Ok(Strict(Value::String(s.to_string())))
+            }
+            fn visit_string<E: Error>(self, s: String) -> Result<Strict, E> {
+                Ok(Strict(Value::String(s)))
+            }
+            fn visit_unit<E: Error>(self) -> Result<Strict, E> {
+                Ok(Strict(Value::Null))
+            }
+            fn visit_none<E: Error>(self) -> Result<Strict, E> {
+                Ok(Strict(Value::Null))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Strict, A::Error> {
+                let mut items = Vec::new();
+                while let Some(Strict(v)) = seq.next_element()? {
+                    items.push(v);
+                }
+                Ok(Strict(Value::Array(items)))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Strict, A::Error> {
+                let mut m = serde_json::Map::new();
+                while let Some(k) = map.next_key::<String>()? {
+                    let Strict(v) = map.next_value()?;
+                    if m.insert(k.clone(), v).is_some() {
+                        return Err(A::Error::custom(format!(
+                            "the key \"{k}\" appears twice in one object"
+                        )));
+                    }
+                }
+                Ok(Strict(Value::Object(m)))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// A JSON value of the wrong shape; serde_json writes NaN as null, so a null number is `non_finite`.

@@ -28,6 +28,22 @@ mod tests {
     }
 
     #[test]
+    fn a_key_given_twice_is_refused_at_any_depth() {
+        let top = decode_batch::<GyroMsg>(br#"{"t": 1.0, "omega": [0, 0, 0], "t": 2.0}"#, &lim());
+        assert_eq!(top.unwrap_err().code, RejectCode::BadRequest);
+        let nested = decode_batch::<VectorsMsg>(
+            br#"{"t": 1.0, "obs": [{"body": [1, 0, 0], "ref": [1, 0, 0], "ref": [0, 1, 0], "sigma": 0.1}]}"#,
+            &lim(),
+        );
+        let e = nested.unwrap_err();
+        assert_eq!(e.code, RejectCode::BadRequest);
+        assert!(e.message.contains("\"ref\" appears twice"), "{}", e.message);
+        // Not JSON at all is still invalid_json.
+        let broken = decode_batch::<GyroMsg>(br#"{"t": 1.0,"#, &lim());
+        assert_eq!(broken.unwrap_err().code, RejectCode::InvalidJson);
+    }
+
+    #[test]
     fn one_or_many() {
         let one: Vec<GyroMsg> =
             decode_batch(br#"{"t": 1.0, "omega": [0, 0, 0.1]}"#, &lim()).unwrap();
