@@ -16,6 +16,7 @@ pub mod ahrs;
 pub mod attitude;
 pub mod bounds;
 pub mod filters;
+pub mod rejection;
 pub mod rng;
 pub mod sensors;
 pub mod service;

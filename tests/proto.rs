@@ -673,7 +673,10 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         },
         bias: [1.0e-6, -2.0e-6, 3.0e-7],
     };
-    let error = Rejection::new(RejectCode::OutOfOrder, "too old").to_message("attitude/sc1/gyro");
+    let error = attitude_service::wire::ToMessage::to_message(
+        &Rejection::new(RejectCode::OutOfOrder, "too old"),
+        "attitude/sc1/gyro",
+    );
     let imu = full_imu();
     vec![
         ("gyro", v(&gyro)),

@@ -3,6 +3,7 @@
 //! [`ServiceConfig`]. `config/default.json5` documents every option; a test loads it.
 
 use super::fleet::{default_instance_name, FleetConfig, FleetMode};
+pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::{AccConfig, AhrsConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig};
 use crate::attitude::Grp;
 use crate::filters::{
@@ -406,25 +407,7 @@ impl Default for RawLimits {
 }
 
 // ------------------------------------------------------------------------------------------------
-// Validated.
-
-/// How a vehicle's filter starts when no attitude is given.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum InitMode {
-    /// From the first vector-observation set with two or more non-parallel vectors (q-method).
-    Vectors,
-    /// A particle filter starts from a uniformly random attitude at the first measurement.
-    Uniform,
-}
-
-/// Everything needed to create one vehicle's filter.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct VehicleFilterConfig {
-    pub filter: FilterConfig,
-    pub init: InitMode,
-    /// 1σ of the initial bias, rad/s.
-    pub init_bias_sigma_rad_s: Vector3<f64>,
-}
+// Validated. (The vehicle's own: `vehicle::policy`.)
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Limits {
@@ -433,45 +416,6 @@ pub struct Limits {
     pub input: InputLimits,
     /// Distinct sensor names counted per vehicle; further names are counted as `other`.
     pub max_sensors_per_vehicle: usize,
-}
-
-/// How every vehicle treats time, outliers and failures (service-wide; not part of a checkpoint).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Policy {
-    /// A sample waits at most this long (in sample time, and in wall time) for the vehicle's other
-    /// stream to reach its time; 0 processes every sample on arrival.
-    pub reorder_window_s: f64,
-    /// A sample further ahead of the vehicle's newest time than this is refused (`time_jump`).
-    pub max_jump_s: f64,
-    /// χ² threshold (3 degrees of freedom) of the innovation gate, `None` = off.
-    pub gate_threshold: Option<f64>,
-    /// Per-sensor thresholds overriding `gate_threshold` (`None` = that sensor is not gated).
-    pub sensor_gate: BTreeMap<String, Option<f64>>,
-    /// Per-sensor models (`gravity`, `field`); a sensor not listed is a plain vector observation.
-    pub sensor_models: BTreeMap<String, SensorModel>,
-    /// Consecutive fully gated vector sets before the vehicle re-initialises (0 = never).
-    pub gate_reinit_after: u32,
-    /// Consecutive failed filter steps before the vehicle re-initialises from its last good estimate.
-    pub reinit_after_failures: u32,
-    /// Factor on the last good estimate's 1σ when re-initialising from it.
-    pub reinit_sigma_factor: f64,
-    pub max_sensors_per_vehicle: usize,
-    /// Largest gyro rate (and reset bias) accepted, rad/s.
-    pub max_rate_rad_s: f64,
-    /// The raw-IMU pipeline of `P/V/imu` vehicles.
-    pub imu: AhrsConfig,
-    /// Least interval between two published estimates of an IMU vehicle, s (0: every sample).
-    pub imu_estimate_interval_s: f64,
-}
-
-impl Policy {
-    /// The gate threshold of observations from `sensor`.
-    pub fn gate_for(&self, sensor: Option<&str>) -> Option<f64> {
-        match sensor.and_then(|s| self.sensor_gate.get(s)) {
-            Some(t) => *t,
-            None => self.gate_threshold,
-        }
-    }
 }
 
 /// Checkpoints of every vehicle's complete state.

@@ -522,7 +522,7 @@ impl Engine {
                 .or_insert(0) += 1;
         }
         tracing::debug!(key, code = r.code.as_str(), message = %r.message, "rejected");
-        let msg = r.to_message(key);
+        let msg = crate::wire::ToMessage::to_message(r, key);
         let to = if vehicle.contains(['*', '$']) {
             self.keys.rejected_wildcard()
         } else {

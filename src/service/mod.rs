@@ -337,7 +337,7 @@ async fn reply(q: &Query, key: &str, payload: Vec<u8>) {
 }
 
 async fn reply_err(q: &Query, r: &Rejection) {
-    let msg: ErrorMsg = r.to_message(q.key_expr().as_str());
+    let msg: ErrorMsg = crate::wire::ToMessage::to_message(r, q.key_expr().as_str());
     if let Err(e) = q
         .reply_err(json(&msg))
         .encoding(Encoding::APPLICATION_JSON)

@@ -9,23 +9,24 @@
 //! waiting for a vector set that determines the attitude, or a reset that gives it) → `Tracking`.
 //! What happens to released samples is reported as [`Event`]s.
 
-use super::config::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
     build_filter, is_spd, AttitudeFilter, Estimate, FilterError, FilterKind, FilterSpec,
     InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
+use crate::rejection::{RejectCode, Rejection};
 use crate::sensors::imu::{SensorState, Verdict};
 use crate::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
-use crate::wire::{RejectCode, Rejection};
 use nalgebra::{Matrix3, Vector3};
+use policy::{InitMode, Policy, VehicleFilterConfig};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
 
 mod output;
+pub mod policy;
 mod reset;
 
 pub use output::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};

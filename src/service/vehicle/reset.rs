@@ -2,15 +2,15 @@
 //! last estimate another instance published. Both arrive as domain values, validated once at the
 //! edge (`crate::wire`: `TryFrom<&ResetMsg>`, `TryFrom<&EstimateMsg>`).
 
+use super::policy::{InitMode, Policy, VehicleFilterConfig};
 use super::{
     Event, Published, ResetOutcome, Slot, VehicleState, DEFAULT_RESET_SIGMA_DEG, MAX_PARTICLES,
     STREAMS,
 };
 use crate::attitude::Quaternion;
 use crate::filters::{is_spd, Fiducial, FilterKind, FilterSpec, InitialState};
+use crate::rejection::{RejectCode, Rejection};
 use crate::sensors::GyroSample;
-use crate::service::config::{InitMode, Policy, VehicleFilterConfig};
-use crate::wire::{RejectCode, Rejection};
 use nalgebra::{Matrix6, Vector3};
 use std::collections::VecDeque;
 
