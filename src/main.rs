@@ -42,7 +42,7 @@ enum Command {
     /// observations), against the MEKF measured in the same run.
     Bench(bench::BenchArgs),
     /// A recorded IMU trial (a file of scripts/broad-export.py) through one vehicle of the service's
-    /// pipeline in one process without the network, timed: the Rust half of `bench --vqf`.
+    /// pipeline in one process without the network, timed: the Rust half of benches/vqf_compare.py.
     ImuBench(bench::ImuBenchArgs),
     /// Recorded IMU trials (files of scripts/broad-export.py) through the service's vehicle pipeline in
     /// one process, scored against their truth: BROAD's RMSEs and how often the error lies inside the

@@ -1,8 +1,8 @@
 //! `bench` (each filter's step cost against the MEKF) and `imu-bench` (a recorded IMU trial through one
-//! vehicle, timed); `bench --vqf` runs benches/vqf_compare.py beside.
+//! vehicle, timed). VQF side by side is `benches/vqf_compare.py`, which calls these two commands.
 
 use crate::filters::FilterSpec;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -17,11 +17,6 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
-    /// Also run the side-by-side of our MEKF (no network) and VQF (the `vqf` PyPI package, C++ batch
-    /// mode) on this BROAD trial, through benches/vqf_compare.py in the project's .venv (created by
-    /// scripts/python-tests.sh).
-    #[arg(long)]
-    vqf: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -52,63 +47,13 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         args.particles,
         std::time::Duration::from_secs_f64(args.seconds),
     )?;
-    let vqf = match &args.vqf {
-        None => None,
-        Some(trial) => Some(vqf_side_by_side(trial)?),
-    };
     if args.json {
-        let mut v = serde_json::to_value(&report)?;
-        if let (Some(obj), Some(x)) = (v.as_object_mut(), vqf) {
-            obj.insert("vqf".into(), x);
-        }
-        println!("{v}");
+        // (Through a JSON value, whose keys are sorted, as this output has always been.)
+        println!("{}", serde_json::to_value(&report)?);
     } else {
         print!("{}", report.table());
-        if let Some(x) = vqf {
-            println!(
-                "\nMEKF vs VQF on {}:\n{}",
-                args.vqf
-                    .as_ref()
-                    .map(|p| p.display().to_string())
-                    .unwrap_or_default(),
-                serde_json::to_string_pretty(&x)?
-            );
-        }
     }
     Ok(())
-}
-
-/// Runs benches/vqf_compare.py in the project's venv against this binary and returns its JSON.
-fn vqf_side_by_side(trial: &std::path::Path) -> Result<serde_json::Value> {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let python = root.join(".venv/bin/python");
-    let script = root.join("benches/vqf_compare.py");
-    if !python.exists() {
-        bail!("{} is missing: run `bash scripts/python-tests.sh` once to create the venv (with vqf and h5py)", python.display());
-    }
-    let exe = std::env::current_exe()?;
-    let out = std::process::Command::new(&python)
-        .arg(&script)
-        .arg(trial)
-        .arg("--json")
-        .arg("--no-python-loop")
-        .arg("--bin")
-        .arg(&exe)
-        .output()
-        .with_context(|| format!("running {}", script.display()))?;
-    if !out.status.success() {
-        bail!(
-            "vqf_compare.py failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .rev()
-        .find(|l| l.trim_start().starts_with('{'))
-        .unwrap_or("{}");
-    Ok(serde_json::from_str(line)?)
 }
 
 /// `imu-bench`: prints the JSON line of [`crate::tools::imu_bench::main_entry`].
