@@ -21,6 +21,7 @@ pub use reset::*;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::attitude::Quaternion;
 
     fn lim() -> InputLimits {
         InputLimits::default()
