@@ -4,15 +4,15 @@
 //! ([`crate::study`], [`crate::service`], [`crate::tools`]), which knows nothing of the command line.
 //!
 //! One file per group of commands:
-//! * [`study`]: `montecarlo`, `sweep`; [`scenario`]: the scenario options they share with `simulate`
+//! * `study`: `montecarlo` and `sweep`; `scenario`: the scenario options they share with `simulate`
 //!   and `demo`, and `scenarios`;
-//! * [`serve`]: `serve`;
-//! * [`fleet`]: `simulate`, `demo`;
-//! * [`bench`]: `bench`, `imu-bench`;
-//! * [`imu_study`]: `imu-study` (and its tuning);
-//! * [`load`]: `loadgen`, `soak`;
-//! * [`runtime`]: the async runtime, the logging and the shutdown token (one per process, cancelled by
-//!   SIGINT or SIGTERM); [`config`]: the configuration file and the zenoh session configurations.
+//! * `serve`: `serve`;
+//! * `fleet`: `simulate` and `demo`;
+//! * `bench`: `bench` and `imu-bench`;
+//! * `imu_study`: `imu-study` (and its tuning);
+//! * `load`: `loadgen` and `soak`;
+//! * `runtime`: the async runtime, the logging and the shutdown token (one per process, cancelled by
+//!   SIGINT or SIGTERM); `config`: the configuration file and the zenoh session configurations.
 //!
 //! Errors are `anyhow` here, and only here (and in `main.rs`): below this layer they are typed.
 

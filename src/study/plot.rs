@@ -1,6 +1,6 @@
-//! The plotting toolkit of the study reports (`report`, `sweep`): size, palette and
-//! font of a figure, the drawing of one plot (a failure becomes an error, never a panic or a partial
-//! file), the title-and-legend header, the clipping of polylines to the axes, axis ranges and ticks.
+//! The plotting toolkit of the study reports (`report`, `sweep`): size, palette and font of a figure,
+//! the drawing of one plot (a failure becomes an error, never a panic or a partial file), the
+//! title-and-legend header, the clipping of polylines to the axes, axis ranges and ticks.
 //!
 //! Plots are drawn with `plotters` on a bitmap backend. No system fonts are assumed: the bundled
 //! DejaVu Sans is registered once as the `sans-serif` family before anything is drawn.
