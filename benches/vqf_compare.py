@@ -2,7 +2,11 @@
 """Side-by-side run of a peer on the same data: the `vqf` package against our MEKF on one BROAD trial.
 
     .venv/bin/python benches/vqf_compare.py /work/shared/data/broad/07_undisturbed_fast_rotation_B.hdf5 \
-        [--json] [--bin target/release/attitude-service] [--repeat 3]
+        [--json] [--bin target/release/attitude-service] [--repeat 3] [--no-python-loop] \
+        [--bench [--particles N] [--seconds S]]
+
+The binary never runs this script: it is the script that runs the binary (`imu-bench`, and `bench` with
+`--bench`) and VQF (the `vqf` package of the project's .venv, created by scripts/python-tests.sh).
 
 What it does:
 
@@ -22,7 +26,10 @@ What it does:
    times, best of) and reads its JSON line (`samples_per_s`: the trial through one vehicle of the service's
    pipeline with the MEKF, in one process, no network, file I/O excluded; process start-up is not counted for
    either side). ratio = MEKF samples/s ÷ VQF `updateBatch` samples/s.
-4. Scores both with the BROAD metric (`example_code/broad_utils.py`): `e = q_est ⊗ q_opt⁻¹` (Hamilton, earth-frame
+4. With `--bench`, first runs `attitude-service bench [--json] --particles N --seconds S` (each filter's step
+   cost against the MEKF) and prints its table before the comparison's; with `--json`, prints one object:
+   `bench --json`'s with the comparison's object under `"vqf"`.
+5. Scores both with the BROAD metric (`example_code/broad_utils.py`): `e = q_est ⊗ q_opt⁻¹` (Hamilton, earth-frame
    error), total `2·acos(|e_w|)`, heading `2·atan(|e_z/e_w|)`, inclination `2·acos(√(e_w² + e_z²))`, RMSE in
    degrees over `movement` (NaN reference rows ignored, as `nanmean` does there).
    Heading alignment: VQF's 9D quaternion is in its own earth frame (heading from the magnetometer), ours in ENU
@@ -223,6 +230,22 @@ def mekf_once(bin_path: Path, samples: Path, estimates: Path | None, n: int) -> 
     return run
 
 
+def run_bench(bin_path: Path, particles: int, seconds: float, as_json: bool) -> str | dict:
+    """`attitude-service bench`: its table (text), or its JSON object with `as_json`."""
+    cmd = [str(bin_path), "bench", "--particles", str(particles), "--seconds", str(seconds)]
+    if as_json:
+        cmd.append("--json")
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}{proc.stdout}")
+    if not as_json:
+        return proc.stdout
+    lines = [line for line in proc.stdout.splitlines() if line.lstrip().startswith("{")]
+    if not lines:
+        raise SystemExit(f"{' '.join(cmd)} printed no JSON line:\n{proc.stdout}")
+    return json.loads(lines[-1])
+
+
 def timed_pair(trial: dict, bin_path: Path, samples: Path, estimates: Path, repeat: int) -> tuple[dict, dict]:
     """VQF updateBatch and the MEKF, alternated `repeat` times so that both see the same machine load;
     the best run of each counts. Returns (vqf_batch, mekf)."""
@@ -263,9 +286,21 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs of each estimator; the best counts")
     ap.add_argument("--no-python-loop", action="store_true", help="skip VQF's slow per-sample Python loop")
     ap.add_argument("--workdir", type=Path, help="keep the samples and estimates files here")
+    ap.add_argument(
+        "--bench",
+        action="store_true",
+        help="also run `attitude-service bench` (each filter's step cost against the MEKF) and print it first; "
+        'with --json, one object: bench\'s, with this comparison under "vqf"',
+    )
+    ap.add_argument("--particles", type=int, default=1000, help="with --bench: particles of the particle filter")
+    ap.add_argument("--seconds", type=float, default=1.0, help="with --bench: measuring time per filter, s")
     args = ap.parse_args()
     if args.repeat < 1:
         ap.error("--repeat must be at least 1")
+    if args.bench and (args.particles < 2 or not args.seconds > 0):
+        ap.error("--particles must be at least 2 and --seconds positive")
+
+    bench = run_bench(args.bin, args.particles, args.seconds, args.json) if args.bench else None
 
     trial = load_trial(args.trial)
     n = len(trial["gyr"])
@@ -313,9 +348,15 @@ def main() -> int:
         result["vqf_python_loop_max_diff_vs_batch"] = vqf["python_loop"]["max_diff_vs_batch"]
 
     if args.json:
+        if bench is not None:
+            bench["vqf"] = result
+            result = bench
         print(json.dumps(result))
         return 0
 
+    if bench is not None:
+        print(bench, end="")
+        print(f"\nMEKF vs VQF on {args.trial}:")
     print(f"{trial['name']}: {n} samples at {trial['rate_hz']:.3f} Hz, best of {args.repeat} runs\n")
     print(f"{'estimator':<34} {'samples/s':>12} {'total°':>8} {'heading°':>9} {'incl.°':>8} {'hdg off°':>9}")
     rows = [

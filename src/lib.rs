@@ -7,7 +7,8 @@
 //!   reports.
 //! * [`wire`]: the JSON messages of the service and their validation into domain types.
 //! * [`service`]: the zenoh service (configuration, key expressions, vehicle engine, queryables).
-//! * [`tools`]: zenoh clients of the service: the scenario publisher and the demo.
+//! * [`tools`]: around the service: the scenario publisher, the demo, load, soak and benchmarks.
+//! * [`cli`]: the binary's commands (options, set-up, output); `main.rs` only dispatches to them.
 
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also refuses NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -15,6 +16,7 @@
 pub mod ahrs;
 pub mod attitude;
 pub mod bounds;
+pub mod cli;
 pub mod filters;
 pub mod rejection;
 pub mod rng;

@@ -65,3 +65,57 @@ fn numeric_core_does_no_io() {
         violations.join("\n")
     );
 }
+
+/// Every `.rs` file under `src/`, with its code above the unit tests.
+fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
+    let mut files = Vec::new();
+    rust_files(&root.join("src"), &mut files);
+    files
+        .into_iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(&f).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap_or("").to_string();
+            (f, code)
+        })
+        .collect()
+}
+
+#[test]
+fn anyhow_only_in_the_command_layer() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let allowed = [root.join("src/main.rs"), root.join("src/cli")];
+    let violations: Vec<String> = library_code(root)
+        .into_iter()
+        .filter(|(f, _)| !allowed.iter().any(|a| f.starts_with(a)))
+        .filter(|(_, code)| code.contains("anyhow"))
+        .map(|(f, _)| f.display().to_string())
+        .collect();
+    assert!(
+        violations.is_empty(),
+        "anyhow below the command layer (errors are typed there):\n{}",
+        violations.join("\n")
+    );
+}
+
+#[test]
+fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut violations = Vec::new();
+    for (f, code) in library_code(root) {
+        for (n, line) in code.lines().enumerate() {
+            if line.trim_start().starts_with("//") {
+                continue;
+            }
+            for word in ["CARGO_MANIFEST_DIR", ".venv", "python"] {
+                if line.contains(word) {
+                    violations.push(format!("{}:{}: {word}", f.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "scripts call the binary, not the other way round:\n{}",
+        violations.join("\n")
+    );
+}

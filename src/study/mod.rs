@@ -1,5 +1,6 @@
 //! Monte-Carlo accuracy studies: run filters on the same simulated data, measure them against the
-//! posterior Cramér–Rao bound, and report (`report` writes `summary.json`, `summary.md` and plots).
+//! posterior Cramér–Rao bound, and report (`report` writes `summary.json`, `summary.md` and plots,
+//! `sweep` the particle-count sweep, both drawing with the toolkit of `plot`).
 //!
 //! Definitions used in every summary (also in `docs/montecarlo.md`):
 //! * error: `δα = 2·vec(q_true ⊗ q̂⁻¹)` (shortest rotation), per body axis, rad; error angle `‖δα‖`-like
@@ -14,6 +15,7 @@
 //!   includes the gyro propagations since the previous epoch).
 
 pub mod broad;
+mod plot;
 pub mod report;
 pub mod runner;
 pub mod sweep;

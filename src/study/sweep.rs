@@ -1,10 +1,8 @@
 //! Particle-count sweep: the same study at several particle counts, reported as accuracy (RMS/PCRB),
 //! convergence and cost per step against N.
 
-use super::report::{
-    draw_header, pe, run_plot, write_file, LegendEntry, ReportError, AXES, FONT, HEIGHT, PALETTE,
-    WIDTH,
-};
+use super::plot::{draw_header, pe, run_plot, LegendEntry, AXES, FONT, HEIGHT, PALETTE, WIDTH};
+use super::report::{write_file, ReportError};
 use super::runner::{run_study, StudyConfig};
 use super::FilterSummary;
 use plotters::prelude::*;

@@ -9,10 +9,10 @@ use crate::service::keys::{Keys, Leaf};
 use crate::wire::{EstimateMsg, QuaternionMsg, TruthMsg};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use thiserror::Error;
+use tokio_util::sync::CancellationToken;
 
 #[derive(Debug, Error)]
 pub enum DemoError {
@@ -143,13 +143,15 @@ pub fn render(rows: &[Row], stats: Option<&SimulateStats>) -> String {
 
 /// Runs the demo. `endpoint` is where the in-process service listens and the simulator connects;
 /// `interactive` redraws the table in place (a terminal), otherwise it is printed every few seconds.
+/// Cancelling `stop` ends the simulation early; the demo then ends as after a whole run (the last
+/// estimates, the service's shutdown, the final table).
 pub async fn demo(
     zenoh_service_json: &str,
     endpoint: &str,
     service: ServiceConfig,
     options: SimulateOptions,
     interactive: bool,
-    interrupted: Arc<AtomicBool>,
+    stop: CancellationToken,
 ) -> Result<(Vec<Row>, SimulateStats), DemoError> {
     let keys = Keys::new(&service.key_prefix);
     let mut service_config = zenoh::Config::from_json5(zenoh_service_json).map_err(zerr)?;
@@ -160,10 +162,15 @@ pub async fn demo(
         )
         .map_err(zerr)?;
     let service_session = zenoh::open(service_config).await.map_err(zerr)?;
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let service_task = tokio::spawn(crate::service::run(service_session, service, async {
-        let _ = stop_rx.await;
-    }));
+    // The in-process service stops after the simulation, not with it (not a child of `stop`), so
+    // that the last estimates still arrive; on an early return too (the guard).
+    let service_stop = CancellationToken::new();
+    let _stop_service_on_return = service_stop.clone().drop_guard();
+    let service_task = tokio::spawn(crate::service::run(
+        service_session,
+        service,
+        service_stop.clone().cancelled_owned(),
+    ));
 
     let client_json = serde_json::json!({
         "mode": "peer",
@@ -201,13 +208,7 @@ pub async fn demo(
     let sim = {
         let client = client.clone();
         let keys = keys.clone();
-        let interrupted = interrupted.clone();
-        tokio::spawn(async move {
-            simulate(&client, &keys, &options, || {
-                interrupted.load(Ordering::Relaxed)
-            })
-            .await
-        })
+        tokio::spawn(async move { simulate(&client, &keys, &options, &stop).await })
     };
     let rows = |live: &Mutex<Live>| -> Vec<Row> {
         live.lock()
@@ -236,7 +237,7 @@ pub async fn demo(
     // Let the last estimates arrive.
     tokio::time::sleep(Duration::from_millis(500)).await;
     let final_rows = rows(&live);
-    let _ = stop_tx.send(());
+    service_stop.cancel();
     let _ = service_task.await;
     let _ = client.close().await;
     Ok((final_rows, stats))

@@ -1,5 +1,7 @@
-//! Command-line tools around the service: the scenario publisher (`simulate`) and the all-in-one
-//! `demo`. They are zenoh clients of the service, not part of it.
+//! Tools around the service, run by the commands of [`crate::cli`]: the scenario publisher
+//! (`simulate`), the all-in-one `demo`, `loadgen` and `soak` (zenoh clients of the service, not part of
+//! it), `bench`, and `imu_study` and `imu_bench` (recorded IMU trials through the vehicle pipeline).
+//! Library code: typed errors, no command-line parsing; a long run stops on a `CancellationToken`.
 
 pub mod bench;
 pub mod demo;

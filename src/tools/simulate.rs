@@ -11,6 +11,7 @@ use crate::wire::{
 };
 use std::time::{Duration, Instant};
 use thiserror::Error;
+use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
 use zenoh::qos::CongestionControl;
 use zenoh::query::ConsolidationMode;
@@ -156,12 +157,13 @@ fn vectors_msg(m: &Measurement) -> Option<Vec<u8>> {
     serde_json::to_vec(&VectorsMsg { t: set.t_s, obs }).ok()
 }
 
-/// Publishes the scenario for every vehicle until the run ends or `stop` returns true.
+/// Publishes the scenario for every vehicle until the run ends or `stop` is cancelled (between two
+/// time steps: a step is published for every vehicle or for none).
 pub async fn simulate(
     session: &zenoh::Session,
     keys: &Keys,
     options: &SimulateOptions,
-    stop: impl Fn() -> bool,
+    stop: &CancellationToken,
 ) -> Result<SimulateStats, SimulateError> {
     let ids = vehicle_ids(options);
     let runs: Vec<SimulatedRun> = (0..options.vehicles)
@@ -191,13 +193,17 @@ pub async fn simulate(
             .congestion_control(CongestionControl::Block)
     };
     for j in 0..steps {
-        if stop() {
-            break;
-        }
         let t = runs[0].measurements[j].t_s();
-        if options.speed > 0.0 {
-            let due = start + Duration::from_secs_f64(((t - t0) / options.speed).max(0.0));
-            tokio::time::sleep_until(due.into()).await;
+        let due = (options.speed > 0.0)
+            .then(|| start + Duration::from_secs_f64(((t - t0) / options.speed).max(0.0)));
+        tokio::select! {
+            biased;
+            _ = stop.cancelled() => break,
+            _ = async {
+                if let Some(due) = due {
+                    tokio::time::sleep_until(due.into()).await;
+                }
+            } => {}
         }
         for (id, run) in ids.iter().zip(&runs) {
             let m = &run.measurements[j];

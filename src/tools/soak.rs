@@ -21,6 +21,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use thiserror::Error;
+use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
 use zenoh::qos::CongestionControl;
 
@@ -322,12 +323,9 @@ struct Window {
     latencies_us: Vec<f64>,
 }
 
-/// Runs the soak. `interrupted` is polled between ticks: when it turns true, sending stops and the
-/// run ends as if it had been that long (the report says so).
-pub async fn run(
-    options: &SoakOptions,
-    interrupted: impl Fn() -> bool,
-) -> Result<SoakReport, SoakError> {
+/// Runs the soak. When `stop` is cancelled, sending stops at the next tick and the run ends as if it
+/// had been that long (the report says so).
+pub async fn run(options: &SoakOptions, stop: &CancellationToken) -> Result<SoakReport, SoakError> {
     if options.vehicles == 0
         || !(options.rate_hz > 0.0 && options.rate_hz.is_finite())
         || !(options.minutes > 0.0 && options.minutes.is_finite())
@@ -346,15 +344,7 @@ pub async fn run(
     let session = zenoh::open(client_config(&endpoint)?)
         .await
         .map_err(|e| SoakError::Zenoh(format!("cannot open the client session: {e}")))?;
-    let result = load(
-        &session,
-        &mut service,
-        options,
-        n_windows,
-        window_s,
-        &interrupted,
-    )
-    .await;
+    let result = load(&session, &mut service, options, n_windows, window_s, stop).await;
     let _ = session.close().await;
     let (exit, code, clean) = service.stop();
     let (windows, totals, rss_start_kb, interrupted) = result?;
@@ -407,7 +397,7 @@ async fn load(
     options: &SoakOptions,
     n_windows: usize,
     window_s: f64,
-    interrupted: &impl Fn() -> bool,
+    stop: &CancellationToken,
 ) -> Result<LoadResult, SoakError> {
     let keys = Keys::new(PREFIX);
     let pid = service.pid();
@@ -463,15 +453,21 @@ async fn load(
     for k in 0..n_windows {
         let (mut sent, mut lag_max) = (0u64, Duration::ZERO);
         for _ in 0..ticks_per_window {
-            if interrupted() {
-                was_interrupted = true;
-                break;
-            }
             let due = start + Duration::from_secs_f64(tick as f64 * period);
             let now = Instant::now();
-            if now < due {
-                tokio::time::sleep_until(due.into()).await;
-            } else {
+            tokio::select! {
+                biased;
+                _ = stop.cancelled() => {
+                    was_interrupted = true;
+                    break;
+                }
+                _ = async {
+                    if now < due {
+                        tokio::time::sleep_until(due.into()).await;
+                    }
+                } => {}
+            }
+            if now >= due {
                 lag_max = lag_max.max(now - due);
             }
             let t = tick as f64 * period;

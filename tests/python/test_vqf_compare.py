@@ -31,3 +31,23 @@ def test_mekf_and_vqf_side_by_side_on_broad():
     # Accuracy on the excerpt (movement phases, degrees; measured 0.83° for ours, 0.89° for VQF unaligned).
     assert report["vqf_total_rmse_deg"] < 2.0, report
     assert report["mekf_total_rmse_deg"] < 2.0, report
+
+
+def test_bench_beside_vqf_is_the_script_calling_the_binary():
+    """`vqf_compare.py --bench` (what `attitude-service bench --vqf` was): the binary's `bench --json` object
+    with the comparison under "vqf"; the binary itself runs no Python."""
+    binary = os.environ.get("ATTITUDE_SERVICE_BIN", str(ROOT / "target" / "release" / "attitude-service"))
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "benches" / "vqf_compare.py"), str(TRIAL), "--json", "--bench",
+         "--seconds", "0.05", "--particles", "200", "--no-python-loop", "--repeat", "1", "--bin", binary],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    report = json.loads([line for line in out.stdout.splitlines() if line.startswith("{")][-1])
+    assert report["particles"] == 200
+    assert report["mekf_us_per_step"] > 0 and report["qpf_ns_per_particle_step"] > 0, report
+    assert report["vqf"]["samples"] > 10_000
+    assert 0.05 < report["vqf"]["ratio"] < 20, report
+    # The option is gone from the binary.
+    gone = subprocess.run([binary, "bench", "--vqf", str(TRIAL)], capture_output=True, text=True, timeout=60)
+    assert gone.returncode != 0 and "--vqf" in gone.stderr

@@ -1,0 +1,64 @@
+//! `serve`: the network service ([`crate::service::run`]) with the configuration file and the
+//! command line's overrides, until the shutdown token is cancelled.
+
+use super::config::{load_config, zenoh_config};
+use super::runtime::init_logging;
+use anyhow::Result;
+use clap::Args;
+use std::path::PathBuf;
+use tokio_util::sync::CancellationToken;
+
+#[derive(Args)]
+pub struct ServeArgs {
+    /// Configuration file (JSON5; `zenoh` and `service` sections). Default: the built-in defaults,
+    /// identical to config/default.json5.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Zenoh endpoint to listen on (repeatable); replaces the configuration's listen endpoints.
+    #[arg(long)]
+    listen: Vec<String>,
+    /// Zenoh endpoint to connect to (repeatable); replaces the configuration's connect endpoints.
+    #[arg(long)]
+    connect: Vec<String>,
+    /// Checkpoint every vehicle's complete state into DIR (periodically and on shutdown) and resume
+    /// from it at start; replaces `service.persistence.state_dir`.
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
+    /// Join a dynamic fleet: instances of the same group share the vehicles (liveliness membership,
+    /// rendezvous hashing, takeover on failure); sets `service.fleet.mode` to `dynamic`.
+    #[arg(long)]
+    fleet: bool,
+    /// The fleet group (`service.fleet.group`; default `default`).
+    #[arg(long, value_name = "NAME")]
+    group: Option<String>,
+    /// This instance's name, unique in its group (`service.fleet.instance`; default host-pid).
+    #[arg(long, value_name = "NAME")]
+    instance: Option<String>,
+    /// Serve only the vehicles whose id matches this key-expression chunk, e.g. `a$*`
+    /// (`service.fleet.vehicles`; default `*`): static sharding.
+    #[arg(long, value_name = "PATTERN")]
+    vehicles: Option<String>,
+}
+
+/// `serve`: runs the service until `shutdown` is cancelled, then lets it wind down.
+pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
+    init_logging();
+    let mut file = load_config(args.config.as_ref())?;
+    if let Some(dir) = args.state_dir {
+        file.service.persistence.state_dir = Some(dir);
+    }
+    crate::service::config::override_fleet(
+        &mut file.service,
+        args.fleet,
+        args.group,
+        args.instance,
+        args.vehicles,
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
+    let session = zenoh::open(zc)
+        .await
+        .map_err(|e| anyhow::anyhow!("cannot open the zenoh session: {e}"))?;
+    crate::service::run(session, file.service, shutdown.cancelled_owned()).await?;
+    Ok(())
+}
