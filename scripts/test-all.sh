@@ -16,8 +16,8 @@ cargo fmt --all -- --check
 echo "== cargo build --release"
 cargo build --release --locked
 
-echo "== cargo test --release"
-cargo test --release --all-targets --locked
+echo "== cargo test --release --workspace"
+cargo test --release --workspace --all-targets --locked
 
 echo "== python black-box tests"
 bash scripts/python-tests.sh

@@ -1,8 +1,9 @@
 //! attitude-service: networked multi-vehicle attitude estimation.
 //!
 //! Layout (see `ARCHITECTURE.md`):
-//! * [`attitude`], [`sensors`], [`filters`], [`bounds`], [`sim`]: the numeric core. No I/O, no async,
-//!   no JSON; typed errors instead of panics.
+//! * [`attitude`], [`sensors`], [`ahrs`], [`filters`], [`bounds`], [`rng`], [`sim`], [`rejection`] and
+//!   the vehicle state machine ([`service::vehicle`]): the numeric core, the crate `attitude-core`
+//!   (`crates/attitude-core`), re-exported here under the same paths. No I/O, no async, no JSON.
 //! * [`study`]: Monte-Carlo accuracy studies of the filters against the Cramér–Rao bound, and their
 //!   reports.
 //! * [`wire`]: the JSON messages of the service and their validation into domain types.
@@ -13,16 +14,10 @@
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also refuses NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod ahrs;
-pub mod attitude;
-pub mod bounds;
+pub use attitude_core::{ahrs, attitude, bounds, filters, rejection, rng, sensors, sim};
+
 pub mod cli;
-pub mod filters;
-pub mod rejection;
-pub mod rng;
-pub mod sensors;
 pub mod service;
-pub mod sim;
 pub mod study;
 pub mod tools;
 pub mod wire;

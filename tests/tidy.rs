@@ -1,16 +1,12 @@
-//! Tidy rules: the numeric core does no I/O, no async, no JSON, no printing.
+//! Tidy rules: the numeric core (the crate `attitude-core`) does no I/O, no async, no JSON, no
+//! printing: its manifest has no such dependency (so the compiler refuses any), and its code no file
+//! or console access.
 
 use std::path::Path;
 
-const CORE: &[&str] = &[
-    "src/ahrs",
-    "src/attitude",
-    "src/sensors",
-    "src/filters",
-    "src/sim",
-    "src/bounds.rs",
-    "src/rng.rs",
-];
+const CORE: &[&str] = &["crates/attitude-core/src"];
+/// Dependencies the core crate must never have.
+const CORE_MUST_NOT_DEPEND_ON: &[&str] = &["zenoh", "tokio", "serde_json", "plotters", "json5"];
 const FORBIDDEN: &[&str] = &[
     "tokio",
     "zenoh",
@@ -31,6 +27,23 @@ fn rust_files(path: &Path, out: &mut Vec<std::path::PathBuf>) {
         }
     } else if path.extension().is_some_and(|e| e == "rs") {
         out.push(path.to_path_buf());
+    }
+}
+
+#[test]
+fn the_core_crate_depends_on_no_io_crate() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
+    let deps = manifest
+        .split("[dependencies]")
+        .nth(1)
+        .expect("a [dependencies] table");
+    for line in deps.lines().filter(|l| !l.trim_start().starts_with('#')) {
+        let name = line.split('=').next().unwrap_or("").trim();
+        assert!(
+            !CORE_MUST_NOT_DEPEND_ON.contains(&name),
+            "attitude-core depends on {name}"
+        );
     }
 }
 
@@ -66,10 +79,11 @@ fn numeric_core_does_no_io() {
     );
 }
 
-/// Every `.rs` file under `src/`, with its code above the unit tests.
+/// Every `.rs` file of both crates, with its code above the unit tests.
 fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
     let mut files = Vec::new();
     rust_files(&root.join("src"), &mut files);
+    rust_files(&root.join("crates/attitude-core/src"), &mut files);
     files
         .into_iter()
         .map(|f| {

@@ -9,7 +9,8 @@ pub mod engine;
 pub mod fleet;
 pub mod keys;
 pub mod persist;
-pub mod vehicle;
+/// One vehicle (the state machine of the numeric core).
+pub use attitude_core::vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use config::ServiceConfig;
