@@ -15,7 +15,7 @@ What it does (it never starts the service):
    by a reset request, e.g. ``{"filter": "qpf", "fiducial": "average", "particles": N}``), on ``P/V/imu``: batches of
    ``--batch`` samples ``{"t": t_k, "gyr", "acc", "mag"}`` (body frame; sample k's rate covers ``(t_{k−1}, t_k]``),
    in time order, as fast as the service takes them. The client computes nothing else: the service derives
-   gravity, the magnetic reference and the noise models from the samples (``service.imu``, ``src/ahrs``). Flow
+   gravity, the magnetic reference and the noise models from the samples (``service.imu``, ``crates/attitude-core/src/ahrs``). Flow
    control: at most ``--window`` samples per vehicle are in flight (sent, no estimate yet); rejections on
    ``P/V/rejected`` are counted (a ``queue_full`` means the window is too large for the service's
    ``queue_per_vehicle``).
