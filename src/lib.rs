@@ -1,8 +1,8 @@
 //! attitude-service: networked multi-vehicle attitude estimation.
 //!
 //! Layout (see `ARCHITECTURE.md`):
-//! * [`attitude`], [`sensors`], [`filters`], [`bounds`], [`sim`]: the numeric core. No I/O, no async,
-//!   no JSON; typed errors instead of panics.
+//! * [`attitude`], [`sensors`], [`filters`], [`bounds`], [`sim`], [`rng`], [`stats`]: the numeric
+//!   core. No I/O, no async, no JSON; typed errors instead of panics.
 //! * [`study`]: Monte-Carlo accuracy studies of the filters against the Cramér–Rao bound, and their
 //!   reports.
 //! * [`wire`]: the JSON messages of the service and their validation into domain types.
@@ -20,6 +20,7 @@ pub mod rng;
 pub mod sensors;
 pub mod service;
 pub mod sim;
+pub mod stats;
 pub mod study;
 pub mod tools;
 pub mod wire;

@@ -10,6 +10,7 @@ const CORE: &[&str] = &[
     "src/sim",
     "src/bounds.rs",
     "src/rng.rs",
+    "src/stats.rs",
 ];
 const FORBIDDEN: &[&str] = &[
     "tokio",
@@ -62,6 +63,51 @@ fn numeric_core_does_no_io() {
     assert!(
         violations.is_empty(),
         "numeric core does I/O:\n{}",
+        violations.join("\n")
+    );
+}
+
+/// Layers import downwards only: the numeric core uses no study, wire, service or tool code, and the
+/// service no study or tool code (a statistic both need lives in the core: `crate::stats`).
+#[test]
+fn layers_import_downwards() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rules: &[(&[&str], &[&str])] = &[
+        (
+            CORE,
+            &[
+                "crate::study",
+                "crate::wire",
+                "crate::service",
+                "crate::tools",
+            ],
+        ),
+        (&["src/service"], &["crate::study", "crate::tools"]),
+    ];
+    let mut violations = Vec::new();
+    for (layer, above) in rules {
+        let mut files = Vec::new();
+        for c in *layer {
+            rust_files(&root.join(c), &mut files);
+        }
+        assert!(!files.is_empty(), "{layer:?} found");
+        for f in files {
+            let text = std::fs::read_to_string(&f).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                if line.trim_start().starts_with("//") {
+                    continue;
+                }
+                for module in *above {
+                    if line.contains(module) {
+                        violations.push(format!("{}:{}: {module}", f.display(), n + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "imports against the layers:\n{}",
         violations.join("\n")
     );
 }
