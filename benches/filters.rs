@@ -1,11 +1,16 @@
 //! Per-step cost of every filter at its default size (gyro propagation + an update with three vector
-//! observations), the quaternion average, and the wire messages. `cargo bench`.
+//! observations), the quaternion average, the wire messages, and the particle filter's normal draws
+//! (our Ziggurat against `rand_distr::StandardNormal`). `cargo bench`; one group: `cargo bench --bench
+//! filters -- normal`.
 
 use attitude_service::attitude::{weighted_average, Quaternion};
+use attitude_service::rng::ziggurat;
 use attitude_service::tools::bench::SteadyState;
 use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, VectorsMsg};
-use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 fn filters(c: &mut Criterion) {
     let mut group = c.benchmark_group("step (gyro + 3 vectors)");
@@ -77,5 +82,39 @@ fn wire(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, filters, average, wire);
+/// Standard normal draws from the particle filter's generator (Xoshiro256++), per draw: the Ziggurat
+/// of `crate::rng` one draw at a time and in pairs (what the QPF's propagation uses), and
+/// `rand_distr::StandardNormal` (also a Ziggurat, 256 layers, one 64-bit draw per sample).
+fn normal(c: &mut Criterion) {
+    const DRAWS: usize = 1024;
+    let mut group = c.benchmark_group("normal");
+    group.throughput(Throughput::Elements(DRAWS as u64));
+    let z = ziggurat();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    group.bench_function("ziggurat", |b| {
+        b.iter(|| (0..DRAWS).map(|_| z.sample(&mut rng)).sum::<f64>())
+    });
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    group.bench_function("ziggurat pairs", |b| {
+        b.iter(|| {
+            (0..DRAWS / 2)
+                .map(|_| {
+                    let (u, v) = z.sample_pair(&mut rng);
+                    u + v
+                })
+                .sum::<f64>()
+        })
+    });
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    group.bench_function("rand_distr StandardNormal", |b| {
+        b.iter(|| {
+            (0..DRAWS)
+                .map(|_| rng.sample::<f64, _>(rand_distr::StandardNormal))
+                .sum::<f64>()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, filters, average, wire, normal);
 criterion_main!(benches);

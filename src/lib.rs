@@ -1,7 +1,8 @@
 //! attitude-service: networked multi-vehicle attitude estimation.
 //!
 //! Layout (see `ARCHITECTURE.md`):
-//! * [`attitude`], [`sensors`], [`ahrs`], [`filters`], [`bounds`], [`rng`], [`sim`], [`rejection`] and
+//! * [`attitude`], [`sensors`], [`ahrs`], [`filters`], [`bounds`], [`rng`], [`stats`], [`sim`],
+//!   [`rejection`] and
 //!   the vehicle state machine ([`service::vehicle`]): the numeric core, the crate `attitude-core`
 //!   (`crates/attitude-core`), re-exported here under the same paths. No I/O, no async, no JSON.
 //! * [`study`]: Monte-Carlo accuracy studies of the filters against the Cramér–Rao bound, and their
@@ -14,7 +15,7 @@
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also refuses NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub use attitude_core::{ahrs, attitude, bounds, filters, rejection, rng, sensors, sim};
+pub use attitude_core::{ahrs, attitude, bounds, filters, rejection, rng, sensors, sim, stats};
 
 pub mod cli;
 pub mod service;

@@ -11,9 +11,10 @@
 //!   `properties`, and every schema property is a field of the Rust message.
 //! * Every rejection code is in the error table of `proto/README.md` and in the schemas' enumerations.
 //!
-//! The schemas are checked by a small validator of the JSON Schema subset they use; it refuses any
-//! keyword it does not know, so a schema cannot silently use more than is checked here. (Python validates
-//! live replies against the same files with `jsonschema`.)
+//! The schemas are applied by the `jsonschema` crate (draft 2020-12, what they declare). A test checks
+//! that they are valid under the draft's meta-schema and use only its keywords (a misspelt keyword would
+//! silently check nothing), and that their one pattern, the vehicle id, accepts exactly the ids the
+//! service accepts. (Python validates live replies against the same files with `jsonschema`.)
 
 use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
@@ -30,7 +31,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 const DRAFT_2020_12: &str = "https://json-schema.org/draft/2020-12/schema";
-/// The vehicle-id pattern of the schemas; the validator checks it with `wire::validate_vehicle_id`.
+/// The only pattern of the schemas, the vehicle id: it accepts what `wire::validate_vehicle_id` accepts.
 const VEHICLE_PATTERN: &str = "^[A-Za-z0-9_-]{1,64}$";
 /// The error code of a query for a vehicle that exists but has no estimate yet (the contract names it
 /// even if `RejectCode` lost it).
@@ -168,10 +169,66 @@ fn fail_on(errors: Vec<String>) {
 }
 
 // ------------------------------------------------------------------------------------------------
-// A validator of the JSON Schema (draft 2020-12) subset the schemas use.
+// Validation by the `jsonschema` crate (draft 2020-12, what every file declares), and the walks over a
+// schema's structure that compare it with the Rust messages.
 
-const ANNOTATIONS: &[&str] = &["$schema", "$id", "title", "description", "$defs"];
+/// Every keyword of draft 2020-12 (the core, applicator, unevaluated, validation, meta-data, format
+/// annotation and content vocabularies). A validator ignores a word it does not know, so a misspelt
+/// keyword would check nothing: the schemas may use only these.
+#[rustfmt::skip]
+const KEYWORDS_2020_12: &[&str] = &[
+    // core
+    "$schema", "$id", "$ref", "$anchor", "$dynamicRef", "$dynamicAnchor", "$vocabulary", "$comment",
+    "$defs",
+    // applicator, unevaluated
+    "allOf", "anyOf", "oneOf", "not", "if", "then", "else", "dependentSchemas", "prefixItems", "items",
+    "contains", "properties", "patternProperties", "additionalProperties", "propertyNames",
+    "unevaluatedItems", "unevaluatedProperties",
+    // validation
+    "type", "enum", "const", "multipleOf", "maximum", "exclusiveMaximum", "minimum",
+    "exclusiveMinimum", "maxLength", "minLength", "pattern", "maxItems", "minItems", "uniqueItems",
+    "maxContains", "minContains", "maxProperties", "minProperties", "required", "dependentRequired",
+    // meta-data, format annotation, content
+    "title", "description", "default", "deprecated", "readOnly", "writeOnly", "examples", "format",
+    "contentEncoding", "contentMediaType", "contentSchema",
+];
 
+/// Every schema object in `schema` (itself included) with its JSON pointer.
+fn subschemas<'s>(schema: &'s Value, at: String, out: &mut Vec<(String, &'s Value)>) {
+    let Some(map) = schema.as_object() else {
+        return; // `true` or `false`
+    };
+    out.push((at.clone(), schema));
+    for (keyword, arg) in map {
+        let at = format!("{at}/{keyword}");
+        match keyword.as_str() {
+            "$defs" | "properties" | "patternProperties" | "dependentSchemas" => {
+                for (name, sub) in arg.as_object().into_iter().flatten() {
+                    subschemas(sub, format!("{at}/{name}"), out);
+                }
+            }
+            "allOf" | "anyOf" | "oneOf" | "prefixItems" => {
+                for (i, sub) in arg.as_array().into_iter().flatten().enumerate() {
+                    subschemas(sub, format!("{at}/{i}"), out);
+                }
+            }
+            "not"
+            | "if"
+            | "then"
+            | "else"
+            | "items"
+            | "contains"
+            | "additionalProperties"
+            | "propertyNames"
+            | "unevaluatedItems"
+            | "unevaluatedProperties"
+            | "contentSchema" => subschemas(arg, at, out),
+            _ => {}
+        }
+    }
+}
+
+/// One schema file: validation, and the walks over its structure.
 struct Validator<'a> {
     root: &'a Value,
 }
@@ -194,166 +251,19 @@ impl Validator<'_> {
         }
     }
 
+    /// Why `value` is not valid under `schema` (the file or a part of it, whose `$ref`s resolve in the
+    /// file's `$defs`), by the `jsonschema` crate; `at` names the value in the messages.
     fn errors(&self, schema: &Value, value: &Value, at: &str) -> Vec<String> {
-        let mut out = Vec::new();
-        self.check(schema, value, at, &mut out);
-        out
-    }
-
-    fn check(&self, schema: &Value, value: &Value, at: &str, out: &mut Vec<String>) {
-        let Some(keywords) = schema.as_object() else {
-            panic!("schema at {at} is not an object: {schema}");
-        };
-        for (keyword, arg) in keywords {
-            match keyword.as_str() {
-                k if ANNOTATIONS.contains(&k) => {}
-                "$ref" => self.check(self.resolve(schema), value, at, out),
-                "type" => {
-                    let types: Vec<&str> = match arg {
-                        Value::String(t) => vec![t.as_str()],
-                        Value::Array(ts) => ts.iter().map(|t| t.as_str().unwrap()).collect(),
-                        _ => panic!("bad type at {at}"),
-                    };
-                    if !types.iter().any(|t| has_type(value, t)) {
-                        out.push(format!("{at}: {value} is not of type {types:?}"));
-                    }
-                }
-                "enum" => {
-                    if !arg.as_array().unwrap().contains(value) {
-                        out.push(format!("{at}: {value} is not one of {arg}"));
-                    }
-                }
-                "const" => {
-                    if arg != value {
-                        out.push(format!("{at}: {value} is not {arg}"));
-                    }
-                }
-                "properties" => {
-                    if let Value::Object(map) = value {
-                        for (name, sub) in arg.as_object().unwrap() {
-                            if let Some(v) = map.get(name) {
-                                self.check(sub, v, &format!("{at}.{name}"), out);
-                            }
-                        }
-                    }
-                }
-                "required" => {
-                    if let Value::Object(map) = value {
-                        for name in arg.as_array().unwrap() {
-                            let name = name.as_str().unwrap();
-                            if !map.contains_key(name) {
-                                out.push(format!("{at}: required field {name} is missing"));
-                            }
-                        }
-                    }
-                }
-                "additionalProperties" => {
-                    if let Value::Object(map) = value {
-                        let listed = schema.get("properties").and_then(Value::as_object);
-                        for (name, v) in map {
-                            if listed.is_some_and(|l| l.contains_key(name)) {
-                                continue;
-                            }
-                            match arg {
-                                Value::Bool(false) => {
-                                    out.push(format!("{at}: field {name} is not allowed"))
-                                }
-                                Value::Bool(true) => {}
-                                sub => self.check(sub, v, &format!("{at}.{name}"), out),
-                            }
-                        }
-                    }
-                }
-                "propertyNames" => {
-                    if let Value::Object(map) = value {
-                        for name in map.keys() {
-                            let key = Value::String(name.clone());
-                            self.check(arg, &key, &format!("{at}[key {name}]"), out);
-                        }
-                    }
-                }
-                "items" => {
-                    if let Value::Array(items) = value {
-                        for (i, v) in items.iter().enumerate() {
-                            self.check(arg, v, &format!("{at}[{i}]"), out);
-                        }
-                    }
-                }
-                "minItems" | "maxItems" => {
-                    if let Value::Array(items) = value {
-                        let n = arg.as_u64().unwrap() as usize;
-                        let bad = if keyword == "minItems" {
-                            items.len() < n
-                        } else {
-                            items.len() > n
-                        };
-                        if bad {
-                            out.push(format!(
-                                "{at}: {} items violates {keyword} {n}",
-                                items.len()
-                            ));
-                        }
-                    }
-                }
-                "minLength" | "maxLength" => {
-                    if let Value::String(s) = value {
-                        let n = arg.as_u64().unwrap() as usize;
-                        let len = s.chars().count();
-                        let bad = if keyword == "minLength" {
-                            len < n
-                        } else {
-                            len > n
-                        };
-                        if bad {
-                            out.push(format!("{at}: length {len} violates {keyword} {n}"));
-                        }
-                    }
-                }
-                "minimum" | "exclusiveMinimum" | "maximum" | "exclusiveMaximum" => {
-                    if let Some(x) = value.as_f64() {
-                        let limit = arg.as_f64().unwrap();
-                        let ok = match keyword.as_str() {
-                            "minimum" => x >= limit,
-                            "exclusiveMinimum" => x > limit,
-                            "maximum" => x <= limit,
-                            _ => x < limit,
-                        };
-                        if !ok {
-                            out.push(format!("{at}: {x} violates {keyword} {limit}"));
-                        }
-                    }
-                }
-                "pattern" => {
-                    assert_eq!(
-                        arg.as_str(),
-                        Some(VEHICLE_PATTERN),
-                        "{at}: the only pattern the schemas use is the vehicle id"
-                    );
-                    if let Value::String(s) = value {
-                        if validate_vehicle_id(s).is_err() {
-                            out.push(format!("{at}: {s:?} is not a vehicle id"));
-                        }
-                    }
-                }
-                "oneOf" | "anyOf" => {
-                    let valid = arg
-                        .as_array()
-                        .unwrap()
-                        .iter()
-                        .filter(|branch| self.errors(branch, value, at).is_empty())
-                        .count();
-                    let ok = if keyword == "oneOf" {
-                        valid == 1
-                    } else {
-                        valid >= 1
-                    };
-                    if !ok {
-                        out.push(format!("{at}: {valid} branches of {keyword} match {value}"));
-                    }
-                }
-                other => panic!("{at}: schema keyword {other} is not supported by this test"),
-            }
+        let mut standalone = schema.clone();
+        if let (Some(s), Some(defs)) = (standalone.as_object_mut(), self.root.get("$defs")) {
+            s.entry("$defs").or_insert_with(|| defs.clone());
         }
+        let validator = jsonschema::draft202012::new(&standalone)
+            .unwrap_or_else(|e| panic!("{at}: the schema does not compile: {e}"));
+        validator
+            .iter_errors(value)
+            .map(|e| format!("{at}{}: {e}", e.instance_path()))
+            .collect()
     }
 
     /// The branch of a `oneOf`/`anyOf` that `value` is valid under (or the schema itself).
@@ -450,22 +360,6 @@ impl Validator<'_> {
             }
             _ => {}
         }
-    }
-}
-
-fn has_type(value: &Value, t: &str) -> bool {
-    match t {
-        "null" => value.is_null(),
-        "boolean" => value.is_boolean(),
-        "string" => value.is_string(),
-        "array" => value.is_array(),
-        "object" => value.is_object(),
-        "number" => value.is_number(),
-        // Draft 2020-12: a number with a zero fractional part is an integer.
-        "integer" => {
-            value.is_i64() || value.is_u64() || value.as_f64().is_some_and(|x| x.fract() == 0.0)
-        }
-        other => panic!("unknown type {other}"),
     }
 }
 
@@ -801,6 +695,38 @@ fn the_schemas_refuse_what_the_service_refuses() {
             serde_json::json!({"t": 1.0, "gyr": [0.0, 0.0, 0.0], "acc": [0.0, 0.0, 9.81], "mag": null}),
         ),
         ("imu", serde_json::json!([])),
+        // One case for each keyword the schemas use that the cases above do not reach.
+        // `maximum` and `type: integer`:
+        ("reset-request", serde_json::json!({"particles": 1000001})),
+        ("reset-request", serde_json::json!({"particles": 1000.5})),
+        ("reset-request", serde_json::json!({"sigma_deg": 361.0})),
+        // `additionalProperties` as a schema (a map of counts) and `propertyNames`:
+        (
+            "health",
+            health_with_rejected(serde_json::json!({"queue_full": -1})),
+        ),
+        (
+            "health",
+            health_with_rejected(serde_json::json!({"queue_full": "2"})),
+        ),
+        (
+            "health",
+            health_with_rejected(serde_json::json!({"no_such_code": 1})),
+        ),
+        // Through a `$ref` into `$defs`:
+        (
+            "estimate",
+            estimate_with("/diagnostics/imu/mag_dip_deg", serde_json::json!(91.0)),
+        ),
+        (
+            "estimate",
+            estimate_with("/diagnostics/gate/st1/accepted", serde_json::json!(-1)),
+        ),
+        ("estimate", estimate_with("/q/w", serde_json::json!(-0.6))),
+        (
+            "estimate",
+            estimate_with("/cov/0", serde_json::json!([0.0])),
+        ),
     ];
     let limits = InputLimits::default();
     for (schema_name, value) in cases {
@@ -839,6 +765,21 @@ fn the_schemas_refuse_what_the_service_refuses() {
             "the service accepts {value}, which {schema_name}.schema.json refuses"
         );
     }
+}
+
+/// `health.json` with its `rejected` counters replaced.
+fn health_with_rejected(rejected: Value) -> Value {
+    let mut h = example("health.json");
+    h["rejected"] = rejected;
+    h
+}
+
+/// The fully populated estimate with the value at `pointer` replaced.
+fn estimate_with(pointer: &str, value: Value) -> Value {
+    let mut e = serde_json::to_value(full_estimate()).unwrap();
+    *e.pointer_mut(pointer)
+        .unwrap_or_else(|| panic!("the estimate has {pointer}")) = value;
+    e
 }
 
 fn quaternion(msg: &QuaternionMsg) -> Quaternion {
@@ -1236,6 +1177,69 @@ fn every_schema_is_draft_2020_12_with_a_title_and_named_in_the_readme() {
         strip(schema("estimate")),
         "state and estimate schemas agree"
     );
+}
+
+/// Every schema is valid under draft 2020-12's meta-schema, uses only the draft's keywords, and has no
+/// pattern but the vehicle id's.
+#[test]
+fn every_schema_is_valid_and_uses_only_draft_2020_12_keywords() {
+    let mut errors = Vec::new();
+    for name in schema_names() {
+        let root = schema(&name);
+        if let Err(e) = jsonschema::draft202012::meta::validate(&root) {
+            errors.push(format!(
+                "{name}.schema.json is not a valid draft 2020-12 schema: {e}"
+            ));
+        }
+        let mut parts = Vec::new();
+        subschemas(&root, String::new(), &mut parts);
+        for (at, part) in parts {
+            for (keyword, arg) in part.as_object().unwrap() {
+                if !KEYWORDS_2020_12.contains(&keyword.as_str()) {
+                    errors.push(format!(
+                        "{name}.schema.json#{at}: {keyword} is not a draft 2020-12 keyword"
+                    ));
+                }
+                if keyword == "pattern" && arg != VEHICLE_PATTERN {
+                    errors.push(format!(
+                        "{name}.schema.json#{at}: pattern {arg} is not the vehicle id's"
+                    ));
+                }
+            }
+        }
+    }
+    fail_on(errors);
+}
+
+/// The schemas' vehicle-id pattern accepts exactly the ids the service accepts.
+#[test]
+fn the_vehicle_pattern_accepts_exactly_the_service_ids() {
+    let id = serde_json::json!({"type": "string", "pattern": VEHICLE_PATTERN});
+    let v = Validator { root: &id };
+    let longest = "a".repeat(64);
+    let too_long = "a".repeat(65);
+    for candidate in [
+        "sc1",
+        "A-z_09",
+        "-",
+        longest.as_str(),
+        too_long.as_str(),
+        "",
+        "a.b",
+        "a b",
+        "a/b",
+        "a*",
+        "$",
+        "sc1\n",
+        "é",
+    ] {
+        let schema_accepts = v.errors(&id, &Value::from(candidate), "id").is_empty();
+        assert_eq!(
+            schema_accepts,
+            validate_vehicle_id(candidate).is_ok(),
+            "{candidate:?}: the schema and the service disagree"
+        );
+    }
 }
 
 // ------------------------------------------------------------------------------------------------

@@ -266,6 +266,23 @@ fn a_gyro_gap_inflates_the_uncertainty_honestly() {
     }
 }
 
+/// The gate's threshold is the exact χ²₃ quantile of `gate.probability` (tables: 21.107 at the default
+/// 0.9999, 16.266 at 0.999); 0 turns a sensor's gate off.
+#[test]
+fn the_gate_threshold_is_the_chi_square_quantile_of_its_probability() {
+    let p = policy();
+    let t = p.gate_threshold.expect("the gate is on by default");
+    assert!((t - 21.1075).abs() < 1e-3, "default threshold {t}");
+    let c = attitude_service::service::config::parse(
+        r#"{ service: { sensors: { mag: { gate_probability: 0.999 }, sun: { gate_probability: 0 } } } }"#,
+        "test",
+    )
+    .unwrap();
+    let mag = c.service.policy.sensor_gate["mag"].expect("mag is gated");
+    assert!((mag - 16.2662).abs() < 1e-3, "mag threshold {mag}");
+    assert_eq!(c.service.policy.sensor_gate["sun"], None);
+}
+
 #[test]
 fn the_gate_refuses_outliers_per_sensor_and_a_wrong_filter_reinitialises() {
     let p = policy();

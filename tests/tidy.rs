@@ -133,3 +133,53 @@ fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
         violations.join("\n")
     );
 }
+
+/// Layers import downwards only: the numeric core uses no study, wire, service or tool code, and the
+/// service no study or tool code (a statistic both need lives in the core: `crate::stats`).
+#[test]
+fn layers_import_downwards() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rules: &[(&[&str], &[&str])] = &[
+        (
+            CORE,
+            // (The core crate cannot name them at all; this also catches a path in a doc test.)
+            &[
+                "crate::study",
+                "crate::wire",
+                "crate::service",
+                "crate::tools",
+                "attitude_service",
+            ],
+        ),
+        (
+            &["src/service", "src/wire"],
+            &["crate::study", "crate::tools", "crate::cli"],
+        ),
+    ];
+    let mut violations = Vec::new();
+    for (layer, above) in rules {
+        let mut files = Vec::new();
+        for c in *layer {
+            rust_files(&root.join(c), &mut files);
+        }
+        assert!(!files.is_empty(), "{layer:?} found");
+        for f in files {
+            let text = std::fs::read_to_string(&f).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                if line.trim_start().starts_with("//") {
+                    continue;
+                }
+                for module in *above {
+                    if line.contains(module) {
+                        violations.push(format!("{}:{}: {module}", f.display(), n + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "imports against the layers:\n{}",
+        violations.join("\n")
+    );
+}

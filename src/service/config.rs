@@ -12,7 +12,7 @@ use crate::filters::{
 };
 use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
 use crate::sensors::GyroNoise;
-use crate::study::runner::chi_square_quantile;
+use crate::stats::chi_square_quantile;
 use crate::wire::{validate_vehicle_id, InputLimits};
 use nalgebra::Vector3;
 use serde::Deserialize;
@@ -716,8 +716,8 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     let threshold = |p: f64, at: &str| -> Result<Option<f64>, String> {
         if p == 0.0 {
             Ok(None)
-        } else if p > 0.0 && p < 1.0 {
-            Ok(Some(chi_square_quantile(3.0, p)))
+        } else if let Some(x) = chi_square_quantile(3.0, p) {
+            Ok(Some(x))
         } else {
             Err(format!("{at} must be 0 (off) or in (0, 1), got {p}"))
         }

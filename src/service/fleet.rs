@@ -14,6 +14,7 @@
 //! members, the standby buffers and the takeovers; `service::run` declares the token and watches the
 //! others.
 
+use crate::rng::{fnv1a, splitmix64_mix, FNV_OFFSET};
 use std::collections::BTreeSet;
 
 /// How this instance takes part in a fleet.
@@ -95,14 +96,8 @@ pub fn default_instance_name() -> String {
 /// alone mixes the last bytes poorly). Stable across processes, versions and machines: every member
 /// must compute the same owner.
 pub fn weight(instance: &str, vehicle: &str) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in instance.bytes().chain([0xff]).chain(vehicle.bytes()) {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    h ^ (h >> 31)
+    let bytes = instance.bytes().chain([0xff]).chain(vehicle.bytes());
+    splitmix64_mix(fnv1a(bytes, FNV_OFFSET))
 }
 
 /// The member owning `vehicle`: the highest weight (ties broken by name); `None` without members.

@@ -2,10 +2,10 @@
 //! service over zenoh, in real time or faster, with the truth on `P/V/truth`.
 
 use crate::filters::FilterSpec;
+use crate::rng::derive_seed;
 use crate::sensors::Measurement;
 use crate::service::keys::{Keys, Leaf};
 use crate::sim::{simulate as simulate_run, ScenarioParams, SimulatedRun};
-use crate::study::runner::derive_seed;
 use crate::wire::{
     GyroMsg, ObservationMsg, PerAxis, QuaternionMsg, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
 };

@@ -4,7 +4,7 @@ use crate::attitude::Quaternion;
 use crate::filters::mekf::{joseph_update, process_noise, transition_matrix};
 use crate::filters::{is_spd, symmetrize};
 use crate::sensors::GyroNoise;
-use nalgebra::{Matrix3, Matrix6, Vector3};
+use nalgebra::{Matrix6, Vector3};
 
 /// Steady-state 1σ of a single-axis attitude/bias filter with an attitude sensor of noise `σ_n` (rad)
 /// every `Δt`, and the gyro noise `σ_v`, `σ_u` (Crassidis & Junkins; verified against a Riccati solution):
@@ -94,18 +94,4 @@ impl Pcrb {
             self.p[(2, 2)].sqrt(),
         )
     }
-}
-
-/// The static bound of one epoch without a gyro: `P = [Σ σⱼ⁻² (‖bⱼ‖² I − bⱼ bⱼᵀ)]⁻¹`, `None` when the
-/// observations do not determine the attitude (fewer than two non-parallel vectors).
-pub fn static_bound(body_vectors_and_sigmas: &[(Vector3<f64>, f64)]) -> Option<Matrix3<f64>> {
-    let mut info = Matrix3::zeros();
-    for (b, sigma) in body_vectors_and_sigmas {
-        info += (Matrix3::identity() * b.norm_squared() - b * b.transpose()) / (sigma * sigma);
-    }
-    let eig = info.symmetric_eigenvalues();
-    if !(eig.min() > eig.max() * 1e-12) {
-        return None;
-    }
-    info.cholesky().map(|c| c.inverse())
 }

@@ -23,4 +23,5 @@ pub mod rejection;
 pub mod rng;
 pub mod sensors;
 pub mod sim;
+pub mod stats;
 pub mod vehicle;

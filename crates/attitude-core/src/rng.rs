@@ -1,9 +1,52 @@
-//! Fast standard-normal draws for the particle filter: the Ziggurat method (Marsaglia & Tsang 2000,
-//! in Doornik's 128-layer form) on one 64-bit draw per sample on the fast path (≈ 99% of draws): 53 bits
-//! of uniform and the layer index from the low 7 bits. Seedable and deterministic through the RNG.
+//! Seeded randomness and stable hashes, each in one place:
+//!
+//! * [`derive_seed`] (SplitMix64): independent seeds from one seed and a stream index (a study's
+//!   runs, the simulator's vehicles);
+//! * [`fnv1a`] and [`splitmix64_mix`]: stable 64-bit hashes (a vehicle's filter seed and sample
+//!   fingerprints, a fleet's rendezvous weights); the same on every machine and in every version;
+//! * fast standard-normal draws for the particle filter: the Ziggurat method (Marsaglia & Tsang 2000,
+//!   in Doornik's 128-layer form) on one 64-bit draw per sample on the fast path (≈ 99% of draws): 53
+//!   bits of uniform and the layer index from the low 7 bits. Seedable and deterministic through the
+//!   RNG.
 
 use rand::RngCore;
 use std::sync::LazyLock;
+
+/// The 64-bit FNV-1a offset basis: the hash of no bytes, where a hash starts.
+pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+const FNV_PRIME: u64 = 0x0100_0000_01b3;
+
+/// 64-bit FNV-1a of `bytes`, continuing from `h` ([`FNV_OFFSET`] for a fresh hash; a previous result to
+/// hash more bytes after it).
+#[inline]
+pub fn fnv1a(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
+    for b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(FNV_PRIME);
+    }
+    h
+}
+
+/// SplitMix64's increment (2⁶⁴ / φ).
+const GOLDEN_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// SplitMix64's output function (Stafford's Mix13): a bijection of `u64` whose every input bit moves
+/// about half the output bits.
+#[inline]
+pub fn splitmix64_mix(z: u64) -> u64 {
+    let z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    let z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// SplitMix64: output number `stream + 1` of the generator seeded with `seed`, used as an independent
+/// seed for stream `stream`.
+pub fn derive_seed(seed: u64, stream: u64) -> u64 {
+    splitmix64_mix(
+        seed.wrapping_add(stream.wrapping_mul(GOLDEN_GAMMA))
+            .wrapping_add(GOLDEN_GAMMA),
+    )
+}
 
 const LAYERS: usize = 128;
 /// Start of the tail, and the area of each layer (Doornik 2005, "An improved ziggurat method").
@@ -192,6 +235,46 @@ mod tests {
             "the two halves are independent"
         );
         assert!((beyond3 as f64 / m - 0.0027).abs() < 3e-4);
+    }
+
+    /// Published FNV-1a and SplitMix64 values, and the seeds and hashes this project has always
+    /// derived (a vehicle's filter seed, a fleet weight, a study's run seed): pinned, since checkpoints,
+    /// determinism tests and mixed-version fleets depend on them.
+    #[test]
+    fn hashes_and_seeds_are_pinned() {
+        // FNV-1a test vectors (Fowler, Noll, Vo).
+        assert_eq!(fnv1a(*b"", FNV_OFFSET), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(*b"a", FNV_OFFSET), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(*b"foobar", FNV_OFFSET), 0x8594_4171_f739_67e8);
+        assert_eq!(
+            fnv1a(*b"bar", fnv1a(*b"foo", FNV_OFFSET)),
+            fnv1a(*b"foobar", FNV_OFFSET)
+        );
+        // SplitMix64 seeded with 0: its first output (Vigna's reference implementation).
+        assert_eq!(derive_seed(0, 0), 0xe220_a839_7b1d_cdaf);
+        // This project's values: the particle-filter seed of vehicle `sc1` (generations 0 and 1),
+        // a study's run seeds, and a fleet's rendezvous weight.
+        let vehicle_seed = |id: &str, generation: u64| {
+            fnv1a(id.bytes().chain(generation.to_le_bytes()), FNV_OFFSET)
+        };
+        assert_eq!(vehicle_seed("sc1", 0), 0xe0a6_35dd_d1ba_bde6);
+        assert_eq!(vehicle_seed("sc1", 1), 0xffa0_fce6_dcaa_0807);
+        assert_eq!(derive_seed(1, 0), 0x910a_2dec_8902_5cc1);
+        assert_eq!(derive_seed(42, 1000), 0x5566_dbe8_93f1_b4ae);
+        assert_eq!(
+            splitmix64_mix(fnv1a(b"i1\xffsc1".iter().copied(), FNV_OFFSET)),
+            0x76c0_7c5e_3764_3fa5
+        );
+    }
+
+    #[test]
+    fn derived_seeds_differ() {
+        let a: Vec<u64> = (0..100).map(|r| derive_seed(1, r)).collect();
+        let mut b = a.clone();
+        b.sort();
+        b.dedup();
+        assert_eq!(a.len(), b.len());
+        assert_ne!(derive_seed(1, 0), derive_seed(2, 0));
     }
 
     #[test]

@@ -96,11 +96,6 @@ impl AverageAccumulator {
         self.total_weight += w;
     }
 
-    /// Adds the raw components of a quaternion (scalar-last) with weight `w`.
-    pub fn add_components(&mut self, x: f64, y: f64, z: f64, w_scalar: f64, weight: f64) {
-        self.add(&Quaternion::new(x, y, z, w_scalar), weight);
-    }
-
     /// Adds particles held as separate component slices (same length), in one tight loop over the
     /// ten distinct entries of `M`. The weights must be finite and non-negative (a particle filter's
     /// normalised weights); a non-finite input is still caught, when the average is decided.
@@ -139,11 +134,6 @@ impl AverageAccumulator {
         self.m += m;
         self.total_weight += total;
         self.count += n;
-    }
-
-    /// The accumulated `M`.
-    pub fn matrix(&self) -> &Matrix4<f64> {
-        &self.m
     }
 
     /// Decides the average. `previous` fixes the sign (`q̄ᵀ q_prev ≥ 0`).

@@ -196,16 +196,6 @@ impl Quaternion {
         m
     }
 
-    /// `Ξ(q) = [q4 I + [ϱ×]; −ϱᵀ]` (4×3), so that `q̇ = ½ Ξ(q) ω`.
-    pub fn xi(&self) -> nalgebra::Matrix4x3<f64> {
-        let v = self.vector();
-        let top = Matrix3::identity() * self.w + skew(&v);
-        let mut m = nalgebra::Matrix4x3::zeros();
-        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&top);
-        m.fixed_view_mut::<1, 3>(3, 0).copy_from(&(-v.transpose()));
-        m
-    }
-
     /// The quaternion of a proper orthogonal attitude matrix (Shepperd's method, numerically safe for
     /// every rotation). The result has `w ≥ 0`.
     pub fn from_attitude_matrix(a: &Matrix3<f64>) -> Quaternion {

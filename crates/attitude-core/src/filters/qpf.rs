@@ -435,11 +435,6 @@ impl Qpf {
         self.cloud.len()
     }
 
-    /// The weighted particle quaternions (for tests and diagnostics).
-    pub fn particle(&self, i: usize) -> (Quaternion, Vector3<f64>, f64) {
-        (self.cloud.q(i), self.cloud.beta(i), self.cloud.w[i])
-    }
-
     /// The weighted average of the cloud (sign-continuous with `reference`), or `reference` itself
     /// when the average is undecidable. Returns whether it fell back, and the concentration and gap.
     fn average_or(&self, reference: &Quaternion) -> (Quaternion, bool, Option<(f64, f64)>) {

@@ -205,12 +205,6 @@ impl Usque {
         self.fiducial
     }
 
-    /// The covariance of `[δp; β]` as the filter holds it (GRP units on the attitude block; see
-    /// [`FilterCore::estimate`] for radians).
-    pub fn covariance_grp(&self) -> &Matrix6<f64> {
-        &self.p
-    }
-
     /// True between a propagation and the update that consumes its sigma points.
     pub fn has_propagated_sigma_points(&self) -> bool {
         self.sigma.is_some()

@@ -82,11 +82,6 @@ impl CircularOrbit {
         self.state_eci(t_s).0
     }
 
-    /// ECI velocity at `t_s`, m/s.
-    pub fn velocity_eci(&self, t_s: f64) -> Vector3<f64> {
-        self.state_eci(t_s).1
-    }
-
     /// The LVLH attitude at `t_s` ([`lvlh_attitude`] of the orbit state).
     pub fn lvlh_attitude(&self, t_s: f64) -> Quaternion {
         let (r, v) = self.state_eci(t_s);

@@ -16,6 +16,7 @@ use crate::filters::{
     InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
 };
 use crate::rejection::{RejectCode, Rejection};
+use crate::rng::{fnv1a as fnv, FNV_OFFSET};
 use crate::sensors::imu::{SensorState, Verdict};
 use crate::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
@@ -179,17 +180,6 @@ fn filter_error(e: &FilterError) -> Rejection {
         ),
     }
 }
-
-/// FNV-1a over bytes.
-fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
-    for b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
-}
-
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
 /// A stable per-vehicle seed from its id.
 fn seed_of(id: &str, generation: u64) -> u64 {
