@@ -181,27 +181,81 @@ fn imu_diag(m: &EstimateMsg) -> &attitude_service::wire::ImuDiagnosticsMsg {
 // ------------------------------------------------------------------------------------------------
 // Rest and the gyro bias
 
-/// At rest the low-passed gyro is the bias: after 20 s still, a bias of (0.5, −0.3, 0.2)°/s is known to
-/// 0.02°/s on every axis, with both filters, and the vehicle says it is at rest.
+/// The bias estimate after `n` samples (200 Hz) still, from IMU seed `seed`: the last estimate, the
+/// bias error (rad/s) and its 3-dof NEES against the published bias covariance.
+fn rest_run(
+    f: &VehicleFilterConfig,
+    p: &Policy,
+    spec: &str,
+    particles: usize,
+    bias: Vector3<f64>,
+    seed: u64,
+) -> (EstimateMsg, Vector3<f64>, f64) {
+    let mut imu = Imu::new(seed, Quaternion::from_euler_321(0.2, -0.1, 1.0), bias);
+    let steps = imu.run(0.0, 4000, still, still, |_| field_enu());
+    let mut v = VehicleState::new("rest", with_filter(f.clone(), spec, particles));
+    let est = feed(&mut v, p, &steps);
+    let last = est.last().unwrap().clone();
+    let err = Vector3::from(last.bias) - bias;
+    let pb = Matrix3::from_fn(|i, j| last.cov[i + 3][j + 3]);
+    let nees = err.dot(&pb.cholesky().unwrap().solve(&err));
+    (last, err, nees)
+}
+
+/// At rest the low-passed gyro is the bias: after 20 s still, a bias of (0.5, −0.3, 0.2)°/s is known,
+/// with both filters, and the vehicle says it is at rest.
+///
+/// * One run (IMU seed 1), both filters: the published bias 1σ is below 0.01°/s per axis (measured
+///   0.0080°/s, MEKF; 0.0041–0.0076°/s, QPF) and the bias error's NEES below χ²₃(0.9995) = 17.73, a
+///   gross check at 0.999 over the two (measured 1.33 and 7.15; one sample cannot tell a covariance
+///   1.5× off).
+/// * The MEKF's bias covariance is consistent, judged on `RUNS` = 40 independent runs (IMU seeds 1,
+///   101, …, 3901), one sample per run: the mean NEES lies in `χ²₁₂₀(0.0005, 0.9995)/40 =
+///   [1.887, 4.440]` with probability 0.999; measured 2.235; with the covariance scaled by 1/2.25 or
+///   2.25 (σ 1.5× too small or too large) it falls outside, which the test checks.
+/// * The particle filter (300 particles, the preset's zero inflation) is not: over the same 40 runs
+///   its bias NEES averages 7.16 (the MEKF's 2.235), a bias cloud about 1.5–1.8× too narrow in σ at
+///   rest (the largest, 29.9, is above the gross bound). That is a finding about the filter, not
+///   asserted here beyond seed 1's gross check: asserting it would fail.
 #[test]
 fn rest_measures_the_gyro_bias() {
     let (f, p) = preset();
     let bias = Vector3::new(0.5, -0.3, 0.2) * DEG;
-    for (spec, n) in [("mekf", 0), ("qpf:average", 300)] {
-        let mut imu = Imu::new(1, Quaternion::from_euler_321(0.2, -0.1, 1.0), bias);
-        let steps = imu.run(0.0, 4000, still, still, |_| field_enu());
-        let mut v = VehicleState::new("rest", with_filter(f.clone(), spec, n.max(2)));
-        let est = feed(&mut v, &p, &steps);
-        let last = est.last().unwrap();
-        let b = Vector3::from(last.bias);
-        assert!(
-            (b - bias).amax() < 0.02 * DEG,
-            "{spec}: bias {} vs {}",
-            b / DEG,
-            bias / DEG
+    for (spec, n) in [("mekf", 2), ("qpf:average", 300)] {
+        let (last, err, nees) = rest_run(&f, &p, spec, n, bias, 1);
+        let sigma = Vector3::from_fn(|i, _| last.cov[i + 3][i + 3].sqrt());
+        eprintln!(
+            "{spec}: bias error {:.5?}°/s, 1σ {:.5?}°/s, NEES {nees:.2}",
+            (err / DEG).as_slice(),
+            (sigma / DEG).as_slice()
         );
-        let d = imu_diag(last);
+        assert!(
+            sigma.amax() < 0.01 * DEG,
+            "{spec}: bias 1σ {}°/s",
+            sigma / DEG
+        );
+        assert!(
+            nees <= 17.73,
+            "{spec}: bias error {}°/s, NEES {nees}",
+            err / DEG
+        );
+        let d = imu_diag(&last);
         assert!(d.at_rest && d.bias_updates >= 15, "{spec}: {d:?}");
+    }
+    const RUNS: u64 = 40;
+    let (lo, hi) = (75.467 / RUNS as f64, 177.603 / RUNS as f64);
+    let anees = (0..RUNS)
+        .map(|k| rest_run(&f, &p, "mekf", 2, bias, 1 + 100 * k).2)
+        .sum::<f64>()
+        / RUNS as f64;
+    eprintln!("mekf: bias ANEES {anees:.3} over {RUNS} runs (bound [{lo:.3}, {hi:.3}])");
+    assert!((lo..=hi).contains(&anees), "mekf: bias ANEES {anees}");
+    for scale in [2.25, 1.0 / 2.25] {
+        assert!(
+            !(lo..=hi).contains(&(anees * scale)),
+            "mekf: a bias covariance scaled by 1/{scale} (ANEES {}) would pass",
+            anees * scale
+        );
     }
 }
 
@@ -299,6 +353,12 @@ fn bias_update_is_the_linear_kalman_update() {
 
 /// Unobserved for a long time, a random-walk bias's variance grows without end; a bounded one's
 /// settles at the stationary `σ_b²`, with the MEKF and the particle filter alike.
+///
+/// After 200 s (≈ 12 τ) the MEKF's recursion gives σ_β = 0.997 σ_b and a mean of 7e-6 σ_b. The 2000
+/// particles' biases are then independent draws from the stationary law: their sample σ is within
+/// ±3.29/√(2N) = ±5.2% of σ_b at 0.999 and their mean within 3.59 σ_b/√N = 0.080 σ_b on every axis
+/// (0.999 over the three). Measured (seed 3): σ_β = 0.975 σ_b, mean (0.048, −0.015, 0.009) σ_b. A σ
+/// 1.5× too small or too large fails the first bound.
 #[test]
 fn an_unobserved_bias_stays_bounded() {
     let gyro = GyroNoise {
@@ -329,9 +389,18 @@ fn an_unobserved_bias_stays_bounded() {
         }
         let e = f.estimate();
         let s = e.covariance[(3, 3)].sqrt();
-        assert!((s / limit - 1.0).abs() < 0.1, "{spec}: σ_β {} °/s", s / DEG);
+        eprintln!(
+            "{spec}: σ_β/σ_b {}, β̂/σ_b {:?}",
+            s / limit,
+            (e.bias_rad_s / limit).as_slice()
+        );
         assert!(
-            e.bias_rad_s.amax() < 0.1 * limit,
+            (s / limit - 1.0).abs() < 0.05,
+            "{spec}: σ_β {} °/s",
+            s / DEG
+        );
+        assert!(
+            e.bias_rad_s.amax() < 0.08 * limit,
             "{spec}: the bias relaxes to zero"
         );
     }
@@ -373,12 +442,22 @@ fn the_tilt_sigma_follows_the_motion_and_updates_are_decimated() {
 }
 
 /// Honesty of the tilt under motion: a body that turns and is shaken (1.5 m/s² along changing
-/// directions) keeps its tilt error inside its published 99% ellipse nearly always (a filter 1.5×
-/// overconfident would not), with a covariance that is not grossly inflated either (median NEES above
-/// 0.15; χ²₂'s is 1.39), for both filters. (The filter is told the synthetic sensor's truth: no
-/// scale-factor error, exact time stamps. With a gyro this good the estimate averages the low-passed
-/// gravity to better than its own error, so the floor at that error is conservative here, about 2×;
-/// on the real IMU of docs/broad.md the median NEES is 0.6–1.5.)
+/// directions), for both filters. (The filter is told the synthetic sensor's truth: no scale-factor
+/// error, exact time stamps. With a gyro this good the estimate averages the low-passed gravity to
+/// better than its own error, so the floor at that error is a little conservative here; on the real
+/// IMU of docs/broad.md the median NEES is 0.6–1.5.)
+///
+/// * Scale: the median of the 2-dof tilt NEES over the 55 s of motion lies in [0.7, 1.9]. χ²₂'s median
+///   is 1.386; a consistent covariance scaled by 1/2.25 or 2.25 (σ 1.5× too small or too large) gives
+///   3.12 or 0.62, outside. The samples (200 Hz) are correlated, so the spread of the median is
+///   measured instead: over IMU seeds 5 and 21–31 it is 1.04–1.11 (MEKF) and 0.96–1.15 (QPF), a 1σ of
+///   0.026 and 0.055 about 1.08, well inside.
+/// * Tail: the tilt error inside its 99% ellipse on more than 97% of the samples (measured: all of
+///   them, every seed). It catches errors far outside the covariance, not its scale: the covariance
+///   scaled by 1/2.25 still has 100% (MEKF) and 99.1% (QPF) inside.
+///
+/// Measured (seed 5): median 1.038 (MEKF) and 0.956 (QPF); with the covariance scaled by 1/2.25,
+/// 2.335 and 2.151, by 2.25, 0.461 and 0.425: the median bound rejects both, which the test checks.
 #[test]
 fn the_tilt_covariance_is_honest_under_motion() {
     let (mut f, mut p) = preset();
@@ -417,8 +496,18 @@ fn the_tilt_covariance_is_honest_under_motion() {
         let inside = nees.iter().filter(|v| **v <= 9.21).count() as f64 / nees.len() as f64;
         nees.sort_by(|a, b| a.total_cmp(b));
         let median = nees[nees.len() / 2];
+        eprintln!("{spec}: tilt inside 99% {inside:.4}, median NEES {median:.3}");
         assert!(inside > 0.97, "{spec}: {inside} inside");
-        assert!(median > 0.15, "{spec}: median NEES {median}");
+        let scale_ok = |m: f64| (0.7..=1.9).contains(&m);
+        assert!(scale_ok(median), "{spec}: median NEES {median}");
+        // The bound's power: the same estimates with the covariance 1.5× too small or too large in σ.
+        for scale in [2.25, 1.0 / 2.25] {
+            assert!(
+                !scale_ok(median * scale),
+                "{spec}: a covariance scaled by 1/{scale} (median NEES {}) would pass",
+                median * scale
+            );
+        }
     }
 }
 
@@ -427,7 +516,10 @@ fn the_tilt_covariance_is_honest_under_motion() {
 
 /// A field disturbed by a place (30 % stronger and turned by 30° for 20 s) is rejected, the heading is
 /// held by the gyro (within its own growing σ), and the magnetometer is used again afterwards; the
-/// heading never follows the 30° of the disturbance.
+/// heading never follows the 30° of the disturbance. Measured (seed 6): worst error 1.67° (MEKF) and
+/// 2.00° (QPF). Over IMU seeds 6, 106, …, 1106 the MEKF's worst is 1.07–2.34°, but the particle
+/// filter's exceeds 5° on two of the twelve (9.7° and 6.4°): a finding about the particle filter that
+/// this seed does not show (the bound is not widened to hide it).
 #[test]
 fn a_disturbed_field_is_rejected_and_the_heading_held() {
     let (f, p) = preset();
@@ -526,7 +618,9 @@ fn a_consistent_new_field_is_accepted() {
 /// A magnet attached to the body (a 20 µT offset) from t = 10 s: the offset is found while the body
 /// turns, accepted and refined, and the heading over the last 40 s is several times better than with
 /// the hard-iron model off (the field then stays disturbed, rejected, and finally used down-weighted);
-/// in an undisturbed field no offset is ever accepted.
+/// in an undisturbed field no offset is ever accepted. Measured (seed 9): 0.549° with, 69.7° without;
+/// over IMU seeds 9, 109, …, 1109 the RMS with the fit is 0.39–0.67°, so the bound of 0.8° lies
+/// between that spread and 1.5× this seed's figure (0.82°).
 #[test]
 fn a_magnet_on_the_body_is_calibrated_out() {
     let (f, p) = preset();
@@ -554,8 +648,9 @@ fn a_magnet_on_the_body_is_calibrated_out() {
     let mut off = p.clone();
     off.imu.mag.hard_iron.enabled = false;
     let (without, _) = heading_rms(&off);
+    eprintln!("heading RMS {with}° with the hard-iron fit, {without}° without");
     assert!(
-        with < 3.0 && without > 3.0 * with,
+        with < 0.8 && without > 3.0 * with,
         "heading RMS {with}° with, {without}° without"
     );
 
@@ -569,6 +664,9 @@ fn a_magnet_on_the_body_is_calibrated_out() {
 
 /// A magnetometer that samples 4 steps (20 ms) after the gyro, in turns of about 1 rad/s: with
 /// `mag.delay_s` set to its delay the heading error stays small; without, it is several times larger.
+/// Measured (seed 11): 0.254° with, 1.258° without; over IMU seeds 11, 111, …, 1111, 0.13–0.25° with
+/// and 1.14–1.30° without. The bound of 0.35° lies between this spread and 1.5× this seed's figure
+/// (0.38°); without is at least 4.5× with on every seed.
 #[test]
 fn the_magnetometer_delay_is_compensated() {
     let (f, p) = preset();
@@ -592,8 +690,9 @@ fn the_magnetometer_delay_is_compensated() {
         ms.sqrt() / DEG
     };
     let (with, without) = (run(4.0 / RATE_HZ), run(0.0));
+    eprintln!("heading RMS {with}° with the delay, {without}° without");
     assert!(
-        with < 0.5 && without > 2.0 * with,
+        with < 0.35 && without > 3.0 * with,
         "heading RMS {with}° with, {without}° without"
     );
 }
@@ -634,6 +733,11 @@ fn variance_floors_hold() {
 /// bias it is sure of too), with the variance floors off so that nothing else widens it, sees its tilt innovations stay inconsistent,
 /// widens its tilt covariance (counted) and follows the accelerometer back to the truth; without the
 /// re-acquisition it is still far off at the same time.
+///
+/// Measured (IMU seed 13): 0.909° with the re-acquisition, 2.11° without. The test holds for this
+/// seed only: on each of seeds 113, 213, …, 1113 it fails, five times because the error with the
+/// re-acquisition is above 1° at 15 s (0.82–0.98° where it is not) and six times because the error
+/// without it is not above 1.5° (0.09–1.7°, often smaller than with it). A finding, left as it is.
 #[test]
 fn an_overconfident_tilt_is_reacquired() {
     let (mut f, mut p) = preset();

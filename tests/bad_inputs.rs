@@ -12,8 +12,10 @@
 //! The setup and the checks are described once, in `proto/BAD_INPUTS.md` ("How a row is tested");
 //! `tests/python/test_bad_inputs.py` runs the same rows through the real binary over zenoh.
 //!
-//! Rows marked `known_issue` describe a behaviour the service gets wrong today: their check must fail
-//! (and this test fails when such a row starts to pass, so the marker is removed with the fix).
+//! A row with `propagated_to` is an update the filter refuses after its propagation to the set's time:
+//! by the filters' contract (`filters::AttitudeFilter::process`) the filter stays propagated there, and
+//! the row asserts exactly that (proto/BAD_INPUTS.md). There is no expected-failure marker: a row the
+//! service gets wrong fails this test.
 
 use attitude_service::service::config::parse;
 use attitude_service::service::engine::{Engine, EngineThreads, Inbound, Sink};
@@ -89,8 +91,10 @@ struct Row {
     #[serde(default)]
     config: Option<Map<String, Value>>,
     code: String,
+    /// A refused update after the filter's propagation: the time (s) the filter and the vehicle stay
+    /// propagated to.
     #[serde(default)]
-    known_issue: Option<String>,
+    propagated_to: Option<f64>,
 }
 
 impl Row {
@@ -167,6 +171,21 @@ fn rows() -> Vec<Row> {
             r.id,
             r.code
         );
+        if let Some(t) = r.propagated_to {
+            assert!(
+                r.code == "filter_error"
+                    && r.leaf == "vectors"
+                    && r.feed() == Feed::Gyro
+                    && r.vehicle.is_none()
+                    && t > 1.5
+                    && t < 3.0
+                    && serde_json::from_slice::<Value>(&r.payload()).unwrap()["t"].as_f64()
+                        == Some(t),
+                "{}: propagated_to is the time of a refused vector set of the healthy gyro-fed vehicle, \
+                 after its time (1.5 s) and before the probe (3 s)",
+                r.id
+            );
+        }
         let _ = r.payload();
     }
     rows
@@ -281,20 +300,12 @@ fn markdown_table_and_json_agree() {
     for extra in table.iter().skip(expected.len()) {
         problems.push(format!("a line without a JSON row:\n  {extra}"));
     }
-    let known: Vec<String> = section("Known issues")
-        .into_iter()
-        .filter(|l| l.starts_with("* `"))
-        .collect();
-    let want_known: Vec<String> = rows
-        .iter()
-        .filter_map(|r| r.known_issue.as_ref().map(|k| format!("* `{}`: {k}", r.id)))
-        .collect();
-    if known != want_known {
-        problems.push(format!(
-            "## Known issues has\n{}\nwant\n{}",
-            known.join("\n"),
-            want_known.join("\n")
-        ));
+    if md.contains("known_issue") || md.contains("\n## Known issues") {
+        problems.push(
+            "proto/BAD_INPUTS.md speaks of known issues: no row is an expected failure (a row asserts \
+             the contract, and the test fails when the service does not keep it)"
+                .into(),
+        );
     }
     assert!(
         problems.is_empty(),
@@ -590,8 +601,9 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
         }
     } else {
         run.put(target, &row.leaf, row.payload());
-        let timeout = Duration::from_secs(if row.known_issue.is_some() { 1 } else { 10 });
-        run.wait(timeout, |r| !r.rejections_since(n0).is_empty());
+        run.wait(Duration::from_secs(10), |r| {
+            !r.rejections_since(n0).is_empty()
+        });
     }
 
     // Right after the row: the healthy vehicle's estimate, its row, the counters.
@@ -611,6 +623,8 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
     // The rows' inputs that reach the filter are single items.
     let queued = code_of(code).is_some_and(|c| QUEUED_CODES.contains(&c));
     let want_received = info0.received + u64::from(own_input && queued);
+    // A refused update after the propagation: the filter, hence the vehicle's time, stays there.
+    let want_t = row.propagated_to.or(info0.t);
     if (
         info1.t,
         info1.received,
@@ -619,7 +633,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
         &info1.state,
         &info1.filter,
     ) != (
-        info0.t,
+        want_t,
         want_received,
         info0.processed,
         want_rejected,
@@ -628,8 +642,8 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
     ) {
         fails.push(format!(
             "the healthy vehicle's P/@/vehicles row: t {:?} received {} processed {} rejected {} {} {} -> \
-             t {:?} received {} processed {} rejected {} {} {} (want received {want_received}, \
-             rejected {want_rejected}; a code decided by the filter after the queue belongs in QUEUED_CODES)",
+             t {:?} received {} processed {} rejected {} {} {} (want t {want_t:?}, received \
+             {want_received}, rejected {want_rejected}; a code decided by the filter after the queue belongs in QUEUED_CODES)",
             info0.t, info0.received, info0.processed, info0.rejected, info0.state, info0.filter,
             info1.t, info1.received, info1.processed, info1.rejected, info1.state, info1.filter,
         ));
@@ -662,11 +676,33 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
     // The probe: the filter is the one a vehicle that never saw the row has.
     match run.probe(feed) {
         Ok(p) => {
+            // A refused update after the propagation to T keeps that propagation (the contract): the
+            // probe then propagates from T, one propagation more than the baseline's, from which it
+            // differs in nothing else (a zero rate: the split propagation is the same to the bit).
+            let want_propagations =
+                base.diagnostics.propagations + u64::from(row.propagated_to.is_some());
+            if p.diagnostics.propagations != want_propagations {
+                fails.push(format!(
+                    "diagnostics.propagations of the probe's estimate is {}, want {want_propagations}",
+                    p.diagnostics.propagations
+                ));
+            }
+            let mut p = p;
+            p.diagnostics.propagations = base.diagnostics.propagations;
             if without_rejected(&p) != without_rejected(&base) {
                 fails.push(format!(
                     "the probe's estimate differs from a vehicle that never saw the row: seq {} vs {}, \
                      t {} vs {}, q {:?} vs {:?}, diagnostics {:?} vs {:?}",
                     p.seq, base.seq, p.t, base.t, p.q, base.q, p.diagnostics, base.diagnostics
+                ));
+            }
+            // A refused filter step is rolled back and counted (the vehicle stays healthy).
+            let want_rollbacks =
+                base.diagnostics.rollbacks + u64::from(own_input && code == "filter_error");
+            if p.diagnostics.rollbacks != want_rollbacks {
+                fails.push(format!(
+                    "diagnostics.rollbacks of the probe's estimate is {}, want {want_rollbacks}",
+                    p.diagnostics.rollbacks
                 ));
             }
             let want: BTreeMap<String, u64> = if own_input {
@@ -730,7 +766,6 @@ fn every_row_is_refused_counted_and_changes_nothing() {
     let only = std::env::var("BAD_INPUTS_ROW").ok();
     let mut baselines = HashMap::new();
     let mut problems = vec![];
-    let mut known = 0;
     let t0 = Instant::now();
     for row in rows
         .iter()
@@ -739,36 +774,14 @@ fn every_row_is_refused_counted_and_changes_nothing() {
         let started = Instant::now();
         let fails = check(row, &mut baselines);
         let took = started.elapsed().as_secs_f64() * 1e3;
-        match (&row.known_issue, fails.is_empty()) {
-            (None, true) => println!("ok    {:45} {:20} {took:7.1} ms", row.id, row.code),
-            (None, false) => {
-                println!("FAIL  {:45} {:20} {took:7.1} ms", row.id, row.code);
-                problems.push(format!("{} ({}): {}", row.id, row.case, fails.join("; ")));
-            }
-            (Some(_), false) => {
-                known += 1;
-                println!(
-                    "known {:45} {:20} {took:7.1} ms: {}",
-                    row.id,
-                    row.code,
-                    fails.join("; ")
-                );
-            }
-            (Some(issue), true) => {
-                println!("FIXED {:45} {:20} {took:7.1} ms", row.id, row.code);
-                problems.push(format!(
-                    "{} passes now: remove its known_issue ({issue}) from proto/bad-inputs.json and \
-                     proto/BAD_INPUTS.md",
-                    row.id
-                ));
-            }
+        if fails.is_empty() {
+            println!("ok    {:45} {:20} {took:7.1} ms", row.id, row.code);
+        } else {
+            println!("FAIL  {:45} {:20} {took:7.1} ms", row.id, row.code);
+            problems.push(format!("{} ({}): {}", row.id, row.case, fails.join("; ")));
         }
     }
-    println!(
-        "{} rows in {:.1} s ({known} known issues)",
-        rows.len(),
-        t0.elapsed().as_secs_f64()
-    );
+    println!("{} rows in {:.1} s", rows.len(), t0.elapsed().as_secs_f64());
     assert!(
         problems.is_empty(),
         "{} rows failed:\n{}",

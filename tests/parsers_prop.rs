@@ -11,7 +11,11 @@
 //! particles), on random measurement sequences with equal and backward times, extreme rates, extreme
 //! and degenerate vectors and sigmas, NaN and infinities: nothing panics; after every call the
 //! estimate is healthy (finite unit quaternion, finite symmetric covariance with a non-negative
-//! diagonal); a refused measurement leaves the estimate bit for bit as it was.
+//! diagonal); a refused measurement leaves the filter bit for bit as it was, except what the contract of
+//! `AttitudeFilter::process` keeps: a vector set whose update is refused after the filter propagated to
+//! its time leaves the filter propagated there, exactly as `advance_to` that time (a twin filter, built
+//! alike and driven in lockstep, is advanced so and must then agree bit for bit, hidden state
+//! included: the two are compared after every later step too).
 //!
 //! Reset requests are also applied to a fresh and to a tracking vehicle (`VehicleState::on_reset`):
 //! accepted, the vehicle's estimate is healthy; refused, the vehicle is unchanged.
@@ -19,11 +23,12 @@
 //! Run in release: `cargo test --release --test parsers_prop` (about 5 s of tests).
 //!
 //! What these properties found is marked `FINDING` where it was found; every finding is fixed and its
-//! test now passes, except FINDING 1, which is the documented contract of `Driver::process` (a
-//! refused update keeps the propagation to its time): `filters_unrestricted` (ignored) shows it.
+//! test passes. FINDING 1 is the documented contract of `Driver::process` (a refused update keeps the
+//! propagation to its time), which every filter test asserts, `filters_unrestricted` with vector sets
+//! ahead of the filter's time.
 
 use attitude_service::attitude::Quaternion;
-use attitude_service::filters::{build_filter, Estimate, FilterConfig, InitialState};
+use attitude_service::filters::{build_filter, validate, Estimate, FilterConfig, InitialState};
 use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
@@ -1516,6 +1521,9 @@ fn run_filter(
 ) -> Result<(), TestCaseError> {
     let mut f = build_filter(&filter_config(spec), initial, seed)
         .map_err(|e| TestCaseError::fail(format!("{spec}: cannot build: {e}")))?;
+    // The same filter, driven in lockstep: what `f` must equal after every step.
+    let mut twin = build_filter(&filter_config(spec), initial, seed)
+        .map_err(|e| TestCaseError::fail(format!("{spec}: cannot build: {e}")))?;
     check_estimate(&f.estimate())?;
     // The sequence's times count from the start time (0 without one).
     let t0 = initial.t_s.unwrap_or(0.0);
@@ -1560,20 +1568,41 @@ fn run_filter(
                 "{spec}: after measurement {k} ({m:?}, {result:?}): {e}"
             ))
         })?;
-        if let Err(err) = result {
-            prop_assert!(
-                estimate_bits(&before) == estimate_bits(&after),
-                "{}: measurement {} was refused ({}) but the estimate changed:\nbefore {:?}\nafter {:?}\nmeasurement {:?}",
-                spec, k, err, before, after, m
-            );
+        match (&result, m) {
+            (Ok(()), _) => {
+                let r = twin.process(m);
+                prop_assert!(
+                    r.is_ok(),
+                    "{}: the twin refused measurement {} ({:?})",
+                    spec,
+                    k,
+                    r
+                );
+            }
+            // A valid vector set may be refused by its update after the propagation to its time,
+            // which stays (the contract of `AttitudeFilter::process`): the twin propagates there too
+            // (a refused propagation leaves it as it was, as it must leave the filter).
+            (Err(_), Measurement::Vectors(_)) if validate(m).is_ok() => {
+                let _ = twin.advance_to(m.t_s());
+            }
+            // Anything else refused changes nothing.
+            (Err(_), _) => {}
         }
+        let kept = twin.estimate();
+        prop_assert!(
+            estimate_bits(&kept) == estimate_bits(&after),
+            "{}: after measurement {} ({:?}) the filter is not the one the contract gives (unchanged when \
+             refused, propagated to its time when a vector set's update is refused):\nbefore {:?}\n\
+             got {:?}\nwant {:?}\nmeasurement {:?}",
+            spec, k, result, before, after, kept, m
+        );
     }
     Ok(())
 }
 
-/// Temporary restrictions of the filter strategies, each for a FINDING below; the ignored test
-/// `filters_unrestricted` runs the full strategy (`cargo test --release --test parsers_prop --
-/// --ignored`).
+/// Restrictions of the filter strategies, each from a FINDING below. Only `vector_times` is still on,
+/// in the per-filter tests: it puts the vector sets at or before the filter's time, where a refused
+/// set must change nothing; `filters_unrestricted` runs the full strategy.
 #[derive(Clone, Copy, Debug)]
 struct Restrict {
     /// The filter always has a start time and a vector set never lies ahead of the filter's time.
@@ -1588,8 +1617,8 @@ struct Restrict {
     no_collapse: bool,
 }
 
-// FINDING 1 (every filter; kept: the documented contract): a refused vector set can change the
-// estimate. `Driver::process` first
+// FINDING 1 (every filter; the documented contract, asserted by `run_filter`): a refused vector set
+// can change the estimate. `Driver::process` first
 // moves the filter to the measurement's time (it sets the time when the filter has none yet, or
 // propagates over dt > 0) and only then calls `FilterCore::update`; when the update fails
 // (innovation covariance not positive definite, covariance no longer positive definite, all
@@ -1603,9 +1632,12 @@ struct Restrict {
 // -2.408e148], sigma 1), USQUE with body = reference = [-17670.2, -46773.5, 0], sigma 3.2e-11
 // ("covariance lost positive definiteness after update"). With a start time the propagation stays as well (MEKF, start
 // t_s -5, a failing set at t 0: the estimate's t_s -5 -> 0 and covariance[0][0] 1e-12 ->
-// 1.5000291666666666e-12). Restriction: `vector_times` (every filter): the start time is
-// always given and a vector set is stamped at the filter's time at the call plus 0, -1e-10, a
-// backward step or a non-finite one, never ahead (gyro samples keep every time step).
+// 1.5000291666666666e-12). That is the contract (`filters` module doc, `AttitudeFilter::process`:
+// the filter stays propagated to the set's time, a valid state), and `run_filter` asserts it: such
+// a filter must be bit for bit a twin advanced to the set's time. Restriction `vector_times` (the
+// per-filter tests): the start time is always given and a vector set is stamped at the filter's
+// time at the call plus 0, -1e-10, a backward step or a non-finite one, never ahead (gyro samples
+// keep every time step); `filters_unrestricted` draws sets ahead of the filter's time as well.
 //
 // FINDING 2 (qpf:average, qpf:propagated; fixed: `filters::validate` refuses rates above
 // `MAX_RATE_RAD_S`, so `huge_rates` is off): a propagation over a rotation angle |ω·dt| whose square
@@ -1678,11 +1710,11 @@ proptest! {
         run_filter(FILTERS[4], &init, seed, &ms, PARTICLE)?;
     }
 
-    /// The full strategy, without the restriction of FINDING 1: fails, by the contract of
-/// `Driver::process` (a refused update keeps the propagation to its time; the service's vehicle
-/// follows the filter's time, `service::vehicle`).
+    /// The full strategy, vector sets ahead of the filter's time included, and a start without a
+    /// time: a vector set refused after the propagation to its time leaves the filter propagated
+    /// there (the contract of `AttitudeFilter::process`, FINDING 1; the service's vehicle follows
+    /// the filter's time, `service::vehicle`), bit for bit what `advance_to` that time gives.
     #[test]
-    #[ignore]
     fn filters_unrestricted(
         f in 0usize..FILTERS.len(),
         init in initial_state(UNRESTRICTED),

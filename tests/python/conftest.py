@@ -32,12 +32,14 @@ SCHEMAS = ROOT / "proto" / "schemas"
 #: The prefix of the shared service: two chunks, to exercise a multi-chunk prefix.
 PREFIX = "pytest/attitude"
 
+#: test_accuracy: ACCURACY_RUNS vehicles `v-<kind>-<i>` per filter kind.
+ACCURACY_KINDS = {"mekf": {"kind": "mekf"}, "usque": {"kind": "usque"}, "qpf": {"kind": "qpf", "particles": 500}}
+ACCURACY_RUNS = 40
+
 #: Per-vehicle filter overrides of the shared service (the rest get the default filter: qpf, 1000 particles).
 VEHICLES = {
-    # test_accuracy: one vehicle per filter kind.
-    "v-mekf": {"kind": "mekf"},
-    "v-usque": {"kind": "usque"},
-    "v-qpf": {"kind": "qpf", "particles": 500},
+    # test_accuracy
+    **{f"v-{kind}-{i}": cfg for kind, cfg in ACCURACY_KINDS.items() for i in range(ACCURACY_RUNS)},
     # test_estimates
     "e-usque-prop": {"kind": "usque", "fiducial": "propagated"},
     # test_queries (P/@/vehicles)

@@ -37,6 +37,13 @@ def axis_errors_rad(q_true: Rotation, q_est: dict) -> np.ndarray:
     return 2.0 * dq[:3]
 
 
+def attitude_nees(q_true: Rotation, estimate: dict) -> float:
+    """``δαᵀ P_att⁻¹ δα`` of a wire estimate against the truth: δα its body-frame error (``axis_errors_rad``),
+    P_att the attitude block of its ``cov``. χ²(3) for a consistent filter."""
+    err = axis_errors_rad(q_true, estimate["q"])
+    return float(err @ np.linalg.solve(np.array(estimate["cov"])[:3, :3], err))
+
+
 def angle_error_deg(q_true: Rotation, q_est: dict) -> float:
     dq = (to_rotation(q_est).inv() * q_true).as_quat()
     return float(np.degrees(2.0 * np.arccos(min(1.0, abs(dq[3])))))

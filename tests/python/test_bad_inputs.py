@@ -4,8 +4,9 @@ proto/BAD_INPUTS.md ("How a row is tested") describes the setup and the checks; 
 same rows against an in-process engine. Rows without `config` use the shared service (each with a healthy
 vehicle of its own, switched to the MEKF by a reset before it starts, fed gyro samples or, for the rows of
 leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `config` (overrides of
-`service.limits`) starts a service of its own. Rows marked `known_issue` are strict xfails: the service gets
-them wrong today, and the case fails once it gets them right (remove the marker then).
+`service.limits`) starts a service of its own. A row with `propagated_to` asserts the filters' contract for an
+update refused after its propagation (the filter and the vehicle's time stay at that time). No row is an expected
+failure: a row the service gets wrong fails its case.
 """
 
 from __future__ import annotations
@@ -18,6 +19,9 @@ import pytest
 from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate, wait_until
 
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
+#: The keys a row may have (tests/bad_inputs.rs refuses any other, `known_issue` included).
+ROW_KEYS = {"id", "case", "leaf", "healthy", "vehicle", "payload", "payload_hex", "payload_gen", "config", "code",
+            "propagated_to"}
 #: Codes decided by the vehicle after the input was queued (the vehicle's `received` counts it).
 QUEUED_CODES = {"out_of_order", "duplicate", "time_jump", "mixed_inputs", "not_initialized", "filter_error"}
 OBS = [
@@ -175,11 +179,11 @@ def service_for(service, client):
 
 
 def params():
-    out = []
-    for i, row in enumerate(ROWS):
-        marks = [pytest.mark.xfail(strict=True, reason=row["known_issue"])] if "known_issue" in row else []
-        out.append(pytest.param(i, row, id=row["id"], marks=marks))
-    return out
+    return [pytest.param(i, row, id=row["id"]) for i, row in enumerate(ROWS)]
+
+
+def test_rows_have_known_keys_only():
+    assert [(r["id"], set(r) - ROW_KEYS) for r in ROWS if set(r) - ROW_KEYS] == []
 
 
 @pytest.mark.parametrize("index, row", params())
@@ -219,7 +223,7 @@ def test_bad_input(service_for, baselines, index, row):
                 fails.append(f"the error's key is {err['key']}")
     else:
         c.put_raw(target, row["leaf"], payload(row))
-        deadline = time.monotonic() + (1.0 if "known_issue" in row else 10.0)
+        deadline = time.monotonic() + 10.0
         while not rejections.snapshot() and time.monotonic() < deadline:
             time.sleep(0.005)
 
@@ -232,8 +236,10 @@ def test_bad_input(service_for, baselines, index, row):
     if (att1, cov1, state1) != (att0, cov0, state0):
         fails.append(f"the healthy vehicle's estimate changed: seq {state0['seq']} t {state0['t']} -> {str(state1)[:200]}")
     row1 = vehicle_row(c, healthy)
+    # A refused update after the propagation to T: the filter, hence the vehicle's time, stays at T.
     want = dict(row0, rejected=row0["rejected"] + own_input,
-                received=row0["received"] + (own_input and code in QUEUED_CODES))
+                received=row0["received"] + (own_input and code in QUEUED_CODES),
+                t=row.get("propagated_to", row0["t"]))
     if row1 != want:
         fails.append(f"the healthy vehicle's P/@/vehicles row is {row1}, want {want}")
     rejected1 = c.health()["rejected"]
@@ -247,6 +253,16 @@ def test_bad_input(service_for, baselines, index, row):
     # The probe: the filter is that of a vehicle that never saw the row.
     try:
         p = probe(c, healthy, fed)
+        # The propagation to T is kept: one propagation more than the baseline's, nothing else different.
+        want_propagations = baseline["diagnostics"]["propagations"] + ("propagated_to" in row)
+        if p["diagnostics"]["propagations"] != want_propagations:
+            fails.append(f"diagnostics.propagations is {p['diagnostics']['propagations']}, want {want_propagations}")
+        p = json.loads(json.dumps(p))
+        p["diagnostics"]["propagations"] = baseline["diagnostics"]["propagations"]
+        # A refused filter step is rolled back and counted.
+        want_rollbacks = baseline["diagnostics"].get("rollbacks", 0) + (own_input and code == "filter_error")
+        if p["diagnostics"].get("rollbacks", 0) != want_rollbacks:
+            fails.append(f"diagnostics.rollbacks is {p['diagnostics'].get('rollbacks', 0)}, want {want_rollbacks}")
         if without_rejected(p) != without_rejected(baseline):
             fails.append(f"the probe's estimate differs from a vehicle that never saw the row:\n{p}\n{baseline}")
         want_rejected = {code: 1} if own_input else {}

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from attitude_client import ServiceError
 from conftest import PREFIX, Collector, subscribe_synced, validate, wait_until
-from sim import Scenario, axis_errors_rad
+from sim import Scenario, attitude_nees
 
 
 def feed(client, vehicle, scenario):
@@ -60,10 +61,13 @@ def test_estimate_subscription(client, vehicle, kind, fiducial, particles):
         validated += validate("estimate", e)
     # The wildcard subscription sees the same messages.
     assert [e for e in every.snapshot() if e["vehicle"] == vehicle] == items
-    # Converged after 10 s of star-tracker data.
+    # Near the truth after 10 s of star-tracker data: the last estimate's attitude NEES below χ²₃(0.9995) = 17.73
+    # (a gross check at 0.999 over the two cases: one sample cannot tell a covariance 1.5× off; the consistency
+    # of every filter kind is test_accuracy's). Measured: 0.71 (usque:propagated), 0.79 (qpf:average).
     last = items[-1]
-    err = axis_errors_rad(scenario.truth(last["t"]), last["q"])
-    assert np.all(np.abs(err) <= 3 * np.radians(last["sigma_deg"])), (err, last["sigma_deg"])
+    nees = attitude_nees(scenario.truth(last["t"]), last)
+    print(f"\n{vehicle}: NEES of the last estimate {nees:.2f}")
+    assert nees <= chi2.ppf(0.9995, 3), (nees, last["sigma_deg"])
     assert validated in (0, len(items))
 
 

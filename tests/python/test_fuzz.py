@@ -19,7 +19,9 @@ stream, on the healthy vehicles' keys and on junk vehicles (valid ids and ids ou
   resets with random (valid or invalid) fields.
 
 At the end: the process is the one started (alive, same pid, uptime growing, every `seq` contiguous) and
-answers health; each healthy vehicle's final estimate (t = 60 s) is within 3σ per axis of the truth; it
+answers health; each healthy vehicle's final estimate (t = 60 s) is near the truth (its attitude NEES below
+χ²₃(1 − 0.001/3) = 18.9: a gross check at 0.999 over the three, no test of the covariance's scale, which is
+test_accuracy's; the hostile traffic changes nothing, which the control run proves); it
 processed exactly its stream and nothing else, and its rejections are, code by code, the ones its hostile
 messages must get; every rejection seen on `P/**/rejected`, plus every refused reset, adds up to the growth
 of the `P/@/health` counters, code by code (and nothing was dropped on ingest). Counts are printed (`-s`) and
@@ -36,12 +38,13 @@ import re
 import time
 
 import numpy as np
+from scipy.stats import chi2
 
 from conftest import Collector, ServiceProcess, subscribe_synced
-from sim import Scenario, angle_error_deg, axis_errors_rad
+from sim import Scenario, angle_error_deg, attitude_nees, axis_errors_rad
 
-#: Fixed; with it the healthy runs end well inside 3σ (their estimates do not depend on the hostile traffic:
-#: the control run checks that).
+#: Fixed; with it the healthy runs end near the truth (final NEES 1.85, 4.03, 2.71; their estimates do not depend on the
+#: hostile traffic: the control run checks that).
 SEED = 3
 N_HOSTILE = 3000
 HEALTHY = {"f-mekf": "mekf", "f-usque": "usque", "f-qpf": "qpf"}
@@ -404,6 +407,7 @@ def errors(scenario: Scenario, estimate: dict) -> dict:
         "error_arcsec": [float(x) for x in np.degrees(err) * 3600],
         "sigma_arcsec": [float(x) for x in np.degrees(sigma) * 3600],
         "error_over_sigma": [float(x) for x in np.abs(err) / sigma],
+        "nees": attitude_nees(truth, estimate),
         "angle_arcsec": angle_error_deg(truth, estimate["q"]) * 3600,
     }
 
@@ -567,7 +571,8 @@ def test_fuzz(tmp_path):
         for v in HEALTHY:
             b, a = before[v], after[v]
             print(f"  {v:8} ({HEALTHY[v]:5}): t={b['t']:.0f} angle {b['angle_arcsec']:.2f}\" |err|/σ {np.round(b['error_over_sigma'], 2)}"
-                  f" -> t={a['t']:.0f} angle {a['angle_arcsec']:.2f}\" |err|/σ {np.round(a['error_over_sigma'], 2)};"
+                  f" -> t={a['t']:.0f} angle {a['angle_arcsec']:.2f}\" |err|/σ {np.round(a['error_over_sigma'], 2)}"
+                  f" NEES {a['nees']:.2f};"
                   f" refused {sum(by_vehicle[v].values())} (expected {sum(expected[v].values())})")
         print(f"  summary: {tmp_path / 'fuzz-summary.json'}")
 
@@ -597,8 +602,8 @@ def test_fuzz(tmp_path):
             assert {k: row[k] for k in want_row} == want_row, (v, row, want_row)
             a = after[v]
             assert a["t"] == DURATION_S, f"{v}: last estimate at t = {a['t']}"
-            assert all(r <= 3.0 for r in a["error_over_sigma"]), (
-                f"{v} ({HEALTHY[v]}): final estimate outside 3σ per axis: |error|/σ {a['error_over_sigma']}"
+            assert a["nees"] <= chi2.ppf(1 - 0.001 / len(HEALTHY), 3), (
+                f"{v} ({HEALTHY[v]}): final estimate far from the truth: NEES {a['nees']}, |error|/σ {a['error_over_sigma']}"
             )
         assert summary["hostile_total"] >= N_HOSTILE
     finally:

@@ -10,6 +10,8 @@ import pathlib
 import subprocess
 import sys
 
+import pytest
+
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 TRIAL = ROOT / "tests" / "data" / "broad" / "16_undisturbed_fast_translation_B_excerpt.hdf5"
@@ -26,11 +28,23 @@ def test_mekf_and_vqf_side_by_side_on_broad():
     assert out.returncode == 0, out.stderr
     report = json.loads([line for line in out.stdout.splitlines() if line.startswith("{")][-1])
     assert report["samples"] > 10_000
-    # Both run on the same samples; the ratio is reported (BENCHMARKS.md), here only sanity-checked.
-    assert 0.05 < report["ratio"] < 20, report
-    # Accuracy on the excerpt (movement phases, degrees; measured 0.83° for ours, 0.89° for VQF unaligned).
-    assert report["vqf_total_rmse_deg"] < 2.0, report
-    assert report["mekf_total_rmse_deg"] < 2.0, report
+    # Speed belongs to the benchmark (BENCHMARKS.md); here only that the reported ratio is the ratio of the two
+    # reported rates (a wall-clock ratio on a shared machine is no test).
+    assert report["mekf_samples_per_s"] > 0 and report["vqf_samples_per_s"] > 0, report
+    assert report["ratio"] == pytest.approx(report["mekf_samples_per_s"] / report["vqf_samples_per_s"], rel=1e-12)
+    # Accuracy on the excerpt (movement phases, degrees). Deterministic: the same samples through the same code
+    # give the same figures. Measured: ours 0.836 (heading-aligned; 0.841 unaligned), VQF 1.179 aligned and 0.889
+    # unaligned. Ours within ±10% of its figure (an RMSE 1.5× worse, 1.25°, fails; so does one of 0.889, VQF's)
+    # and at most VQF's unaligned one (as tests/python/test_broad_replay.py asks of this excerpt); VQF's within
+    # ±5% of both of its figures (the data, the metric and the heading alignment are read right: the aligned and
+    # unaligned figures are 33% apart).
+    errors = report["errors_deg"]
+    mekf, vqf = report["mekf_total_rmse_deg"], report["vqf_total_rmse_deg"]
+    assert mekf == errors["mekf"]["aligned"]["total"] and vqf == errors["vqf"]["aligned"]["total"], report
+    assert 0.836 / 1.1 <= mekf <= 0.836 * 1.1, report
+    assert mekf <= errors["vqf"]["unaligned"]["total"], report
+    assert vqf == pytest.approx(1.179, rel=0.05), report
+    assert errors["vqf"]["unaligned"]["total"] == pytest.approx(0.889, rel=0.05), report
 
 
 def test_bench_beside_vqf_is_the_script_calling_the_binary():
@@ -47,7 +61,8 @@ def test_bench_beside_vqf_is_the_script_calling_the_binary():
     assert report["particles"] == 200
     assert report["mekf_us_per_step"] > 0 and report["qpf_ns_per_particle_step"] > 0, report
     assert report["vqf"]["samples"] > 10_000
-    assert 0.05 < report["vqf"]["ratio"] < 20, report
+    v = report["vqf"]
+    assert v["ratio"] == pytest.approx(v["mekf_samples_per_s"] / v["vqf_samples_per_s"], rel=1e-12), report
     # The option is gone from the binary.
     gone = subprocess.run([binary, "bench", "--vqf", str(TRIAL)], capture_output=True, text=True, timeout=60)
     assert gone.returncode != 0 and "--vqf" in gone.stderr
