@@ -4,8 +4,8 @@
 //! Error state `x = [δα; Δβ]` (rad, rad/s), `δq = q ⊗ q̂⁻¹ ≈ [δα/2; 1]`.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore, FilterError,
-    FilterSpec, GyroErrors, InitialState, SavedFilterRef,
+    check_commit, is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore,
+    FilterError, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
 };
 use crate::attitude::{skew, Quaternion};
 use crate::sensors::{imu, Aspect, GyroNoise, VectorObservation};
@@ -352,12 +352,11 @@ impl FilterCore for Mekf {
             .normalized()
             .ok_or(FilterError::NonFinite { step: "update" })?;
         let bias = self.bias + Vector3::new(dx[3], dx[4], dx[5]);
-        if !q.is_finite() || !bias.iter().all(|b| b.is_finite()) {
-            return Err(FilterError::NonFinite { step: "update" });
-        }
-        if !is_spd(&p) {
-            return Err(FilterError::NotPositiveDefinite { step: "update" });
-        }
+        check_commit(
+            "update",
+            q.is_finite() && bias.iter().all(|b| b.is_finite()),
+            &p,
+        )?;
         self.q = q;
         self.bias = bias;
         self.p = p;
@@ -379,16 +378,8 @@ impl FilterCore for Mekf {
                 step: "bias update",
             })?;
         let bias = self.bias + Vector3::new(u.correction[3], u.correction[4], u.correction[5]);
-        if !q.is_finite() || !bias.iter().all(|b| b.is_finite()) {
-            return Err(FilterError::NonFinite {
-                step: "bias update",
-            });
-        }
-        if !is_spd(&u.covariance) {
-            return Err(FilterError::NotPositiveDefinite {
-                step: "bias update",
-            });
-        }
+        let finite = q.is_finite() && bias.iter().all(|b| b.is_finite());
+        check_commit("bias update", finite, &u.covariance)?;
         self.q = q;
         self.bias = bias;
         self.p = u.covariance;

@@ -767,3 +767,19 @@ pub fn symmetrize(p: &mut Matrix6<f64>) {
 pub fn is_spd(p: &Matrix6<f64>) -> bool {
     p.iter().all(|x| x.is_finite()) && p.cholesky().is_some()
 }
+
+/// The check before a filter step commits (nothing is changed when it fails): the step's new values
+/// are `finite`, its covariance `p` is positive definite.
+pub(crate) fn check_commit(
+    step: &'static str,
+    finite: bool,
+    p: &Matrix6<f64>,
+) -> Result<(), FilterError> {
+    if !finite {
+        return Err(FilterError::NonFinite { step });
+    }
+    if !is_spd(p) {
+        return Err(FilterError::NotPositiveDefinite { step });
+    }
+    Ok(())
+}

@@ -36,8 +36,8 @@
 //! `a = 1, f = 4`, `k = 1` and this changes nothing.
 
 use super::{
-    is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore,
-    FilterError, FilterKind, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
+    check_commit, is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig,
+    FilterCore, FilterError, FilterKind, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
 };
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::sensors::{Aspect, GyroNoise, VectorObservation};
@@ -366,16 +366,9 @@ impl FilterCore for Usque {
             }
         }
         symmetrize(&mut p);
-        if !all_finite(x.iter()) || !all_finite(p.iter()) || q.iter().any(|qi| !qi.is_finite()) {
-            return Err(FilterError::NonFinite {
-                step: "propagation",
-            });
-        }
-        if !is_spd(&p) {
-            return Err(FilterError::NotPositiveDefinite {
-                step: "propagation",
-            });
-        }
+        let finite =
+            all_finite(x.iter()) && all_finite(p.iter()) && q.iter().all(|qi| qi.is_finite());
+        check_commit("propagation", finite, &p)?;
         // Commit.
         self.q_ref = q_fid;
         self.x = x;
@@ -515,12 +508,8 @@ impl FilterCore for Usque {
             .compose(&self.q_ref)
             .normalized()
             .ok_or(FilterError::NonFinite { step: "update" })?;
-        if !q_new.is_finite() || !all_finite(x.iter()) || !nis.is_finite() {
-            return Err(FilterError::NonFinite { step: "update" });
-        }
-        if !is_spd(&p) {
-            return Err(FilterError::NotPositiveDefinite { step: "update" });
-        }
+        let finite = q_new.is_finite() && all_finite(x.iter()) && nis.is_finite();
+        check_commit("update", finite, &p)?;
         // Commit.
         self.q_ref = q_new;
         self.x = Vector6::new(0.0, 0.0, 0.0, x[3], x[4], x[5]);
@@ -560,16 +549,7 @@ impl FilterCore for Usque {
             .ok_or(FilterError::NonFinite {
                 step: "bias update",
             })?;
-        if !q_new.is_finite() || !all_finite(x.iter()) {
-            return Err(FilterError::NonFinite {
-                step: "bias update",
-            });
-        }
-        if !is_spd(&p) {
-            return Err(FilterError::NotPositiveDefinite {
-                step: "bias update",
-            });
-        }
+        check_commit("bias update", q_new.is_finite() && all_finite(x.iter()), &p)?;
         self.q_ref = q_new;
         self.x = Vector6::new(0.0, 0.0, 0.0, x[3], x[4], x[5]);
         self.p = p;
