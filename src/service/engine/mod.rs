@@ -643,13 +643,13 @@ impl Engine {
         req: ResetMsg,
     ) -> Result<tokio::sync::oneshot::Receiver<Result<ResetReplyMsg, Rejection>>, Rejection> {
         validate_vehicle_id(vehicle)?;
-        // Validated once, here; what depends on the vehicle's filter is checked where it is applied.
+        // The request's values are validated once, here; what depends on the vehicle's filter and the
+        // limits is checked where it is applied (`VehicleState::on_reset`).
         let request = ResetRequest::try_from(&req)?;
-        request.check(&self.config.policy)?;
         if self.vehicle(vehicle).is_none() {
             // A refused reset must not create the vehicle: a new vehicle runs its configured filter.
             let config = self.config.filter_for(vehicle);
-            request.config_for(config, config)?;
+            request.config_for(config, config, &self.config.policy)?;
         }
         let v = self.get_or_create(vehicle)?;
         let (tx, rx) = tokio::sync::oneshot::channel();

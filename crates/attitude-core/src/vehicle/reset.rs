@@ -15,8 +15,7 @@ use nalgebra::{Matrix6, Vector3};
 use std::collections::VecDeque;
 
 /// A reset request, its values checked on their own (finite, in range, known names). What depends on
-/// the service's limits is checked by [`ResetRequest::check`], what depends on the vehicle's filter by
-/// [`ResetRequest::config_for`].
+/// the service's limits and on the vehicle's filter is checked by [`ResetRequest::config_for`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ResetRequest {
     /// Another filter kind; its fiducial is kept, or the default one.
@@ -38,7 +37,7 @@ pub struct ResetRequest {
 
 impl ResetRequest {
     /// The limits of the service: no bias (nor bias 1σ) beyond the largest rate accepted.
-    pub fn check(&self, policy: &Policy) -> Result<(), Rejection> {
+    fn check(&self, policy: &Policy) -> Result<(), Rejection> {
         let max = policy.max_rate_rad_s;
         if self.bias_rad_s.is_some_and(|b| b.norm() > max) {
             return Err(Rejection::new(
@@ -56,12 +55,16 @@ impl ResetRequest {
     }
 
     /// The filter configuration of a vehicle that runs `current` after this reset (`base`: the
-    /// vehicle's configured filter, whose fiducial a sampling filter takes when switched to).
+    /// vehicle's configured filter, whose fiducial a sampling filter takes when switched to), or why
+    /// the service's limits or that filter refuse the request. Pure: the engine asks it before it
+    /// creates a vehicle for a reset, the vehicle when it applies one.
     pub fn config_for(
         &self,
         current: &VehicleFilterConfig,
         base: &VehicleFilterConfig,
+        policy: &Policy,
     ) -> Result<VehicleFilterConfig, Rejection> {
+        self.check(policy)?;
         let mut config = current.clone();
         if let Some(kind) = self.filter {
             config.filter.spec.kind = kind;
@@ -172,8 +175,7 @@ impl VehicleState {
         policy: &Policy,
         out: &mut Vec<Event>,
     ) -> Result<ResetOutcome, Rejection> {
-        req.check(policy)?;
-        let config = req.config_for(&self.config, base)?;
+        let config = req.config_for(&self.config, base, policy)?;
         // Everything is valid: use what arrived before the reset, then apply it.
         self.flush_all(policy, out);
         let previous = std::mem::replace(&mut self.config, config);
