@@ -5,6 +5,7 @@
 mod raw;
 
 use super::fleet::{default_instance_name, FleetConfig, FleetMode};
+use super::keys::{Keys, Leaf};
 pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::{AccConfig, AhrsConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig};
 use crate::attitude::Grp;
@@ -486,7 +487,8 @@ fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
     };
     // The vehicle pattern is one chunk of a key expression: `*`, `a$*`, `sc1`, ...
     let vehicles = raw.vehicles;
-    let probe = format!("{prefix}/{vehicles}/gyro");
+    // (The subscription it will be part of, built where every key expression is built.)
+    let probe = Keys::new(prefix).with_vehicles(&vehicles).all(Leaf::Gyro);
     if vehicles.is_empty()
         || vehicles.contains('/')
         || vehicles.starts_with('@')
