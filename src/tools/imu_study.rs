@@ -18,8 +18,8 @@ use crate::sensors::{ImuSample, Measurement};
 use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
 use crate::service::vehicle::{Event, VehicleState};
 use crate::study::broad::{score, Sample, Scores};
-use crate::wire::{EstimateMsg, ImuDiagnosticsMsg};
-use nalgebra::{Matrix3, Vector3};
+use crate::wire::ImuDiagnosticsMsg;
+use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -220,31 +220,30 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
         for e in events.drain(..) {
             match e {
                 Event::Estimate(p) => {
-                    // (As the service publishes it: what a user of the service would score.)
-                    let msg = EstimateMsg::from(&p);
+                    // The published estimate in domain terms (its covariance is the published one,
+                    // time-stamp term included; the wire's form differs only by the sign of q).
+                    let e = &p.estimate;
                     run.published += 1;
                     // Estimates come in time order: find the sample of this time.
-                    while next < trial.samples.len() && trial.samples[next].t_s < msg.t - 1e-9 {
+                    while next < trial.samples.len() && trial.samples[next].t_s < e.t_s - 1e-9 {
                         next += 1;
                     }
-                    if next < trial.samples.len() && (trial.samples[next].t_s - msg.t).abs() <= 1e-9
+                    if next < trial.samples.len() && (trial.samples[next].t_s - e.t_s).abs() <= 1e-9
                     {
-                        let q = msg.q;
-                        let p = Matrix3::from_fn(|i, j| msg.cov[i][j]);
                         run.estimates[next] = Some(Sample {
-                            q: Quaternion::new(q.x, q.y, q.z, q.w),
-                            p_att: p,
+                            q: e.q,
+                            p_att: e.covariance.fixed_view::<3, 3>(0, 0).into_owned(),
                         });
-                        if let Some(d) = &msg.diagnostics.imu {
+                        if let Some(d) = &p.imu {
                             run.series[next] = Some(SeriesPoint {
-                                tilt_sigma_lp_deg: d.tilt_sigma_lp_deg,
-                                at_rest: d.at_rest,
-                                mag_disturbed: d.mag_disturbed,
-                                bias: msg.bias,
+                                tilt_sigma_lp_deg: d.counts.tilt_sigma_lp_rad.to_degrees(),
+                                at_rest: d.counts.at_rest,
+                                mag_disturbed: d.counts.mag_disturbed,
+                                bias: [e.bias_rad_s[0], e.bias_rad_s[1], e.bias_rad_s[2]],
                             });
                         }
                     }
-                    run.imu = msg.diagnostics.imu;
+                    run.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
                 }
                 Event::Rejected(_, r) => {
                     *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
