@@ -5,12 +5,12 @@
 
 use attitude_service::attitude::{weighted_average, Quaternion};
 use attitude_service::rng::ziggurat;
+use attitude_service::rng::Xoshiro256PlusPlus;
 use attitude_service::tools::bench::SteadyState;
 use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 fn filters(c: &mut Criterion) {
     let mut group = c.benchmark_group("step (gyro + 3 vectors)");

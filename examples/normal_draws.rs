@@ -5,9 +5,9 @@
 //! median of the per-round ratios. The criterion group `normal` of `benches/filters.rs` measures the
 //! same loops one after the other. `cargo run --release --example normal_draws -- [rounds]`.
 
+use attitude_service::rng::Xoshiro256PlusPlus;
 use attitude_service::rng::{ziggurat, Ziggurat};
 use rand::{Rng, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use std::hint::black_box;
 use std::time::Instant;
 

@@ -2,16 +2,17 @@
 //! back by every later build, and written back byte for byte the same. A change of the checkpoint
 //! format fails here instead of silently orphaning the checkpoints of a running service: bump
 //! `persist::VERSION`, keep the old files (a checkpoint of another version is refused with a clear
-//! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`), and
-//! add the new version's files with
+//! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`, which
+//! reads the format-3 files kept here), and add the new version's files with
 //!
-//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test checkpoint_golden
+//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test checkpoint_golden -- --test-threads=1
 //!
 //! Two vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
 //! low-passes, rest detector and field model) and an MEKF fed gyro and named vector sensors (gate
 //! counts, the sensor models' state).
 
 use attitude_service::attitude::Quaternion;
+use attitude_service::filters::FilterState;
 use attitude_service::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
@@ -22,7 +23,9 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
+/// The format before this one (bincode of the core's own types), kept to show it is refused.
+const OLD_VERSION: u32 = 3;
 
 fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/checkpoints")
@@ -209,34 +212,72 @@ fn a_checkpoint_restored_continues_like_the_vehicle_that_wrote_it() {
 
 #[test]
 fn checkpoints_of_another_version_are_refused() {
+    assert_eq!(persist::VERSION, VERSION);
     let bytes = std::fs::read(dir().join(format!("v{VERSION}-qpf-imu.ckpt"))).unwrap();
-    for other in [VERSION - 1, VERSION + 1] {
+    let newer = {
         let mut b = bytes.clone();
-        b[8..12].copy_from_slice(&other.to_le_bytes());
-        let e = persist::decode(&b)
+        b[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
+        b
+    };
+    assert_eq!(
+        persist::decode(&newer)
             .err()
-            .expect("another version is refused");
-        assert_eq!(
-            e,
-            format!("format version {other}, this service reads {VERSION}")
-        );
-    }
-    // And through the directory loader: reported and skipped, the good ones restored.
+            .expect("a newer version is refused"),
+        format!(
+            "format version {}, this service reads {VERSION}",
+            VERSION + 1
+        )
+    );
+    // The real files of the previous format, through the directory loader: reported with the reason
+    // and skipped, the good one restored.
     let tmp = std::env::temp_dir().join(format!("golden-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).unwrap();
-    let mut old = bytes.clone();
-    old[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
-    std::fs::write(tmp.join("golden-old.ckpt"), old).unwrap();
+    for name in NAMES {
+        let old = std::fs::read(dir().join(format!("v{OLD_VERSION}-{name}.ckpt"))).unwrap();
+        assert_eq!(old[8..12], OLD_VERSION.to_le_bytes());
+        std::fs::write(tmp.join(format!("golden-old-{name}.ckpt")), old).unwrap();
+    }
     std::fs::write(tmp.join("golden-qpf-imu.ckpt"), &bytes).unwrap();
     let (good, bad) = persist::load_dir(&tmp).unwrap();
     std::fs::remove_dir_all(&tmp).unwrap();
     assert_eq!(good.len(), 1);
-    assert_eq!(bad.len(), 1);
-    assert!(
-        bad[0]
-            .to_string()
-            .contains("format version 2, this service reads 3"),
-        "{}",
-        bad[0]
-    );
+    assert_eq!(bad.len(), 2);
+    for b in &bad {
+        assert!(
+            b.to_string().contains(&format!(
+                "format version {OLD_VERSION}, written by an earlier build: this build reads \
+                 format {VERSION} only, the vehicle starts afresh"
+            )),
+            "{b}"
+        );
+    }
+}
+
+/// A checkpoint that decodes but holds a state no filter could be in (a damaged or hand-edited file
+/// with a valid CRC) is refused with the reason, never restored into a filter that fails later.
+#[test]
+fn a_damaged_state_is_refused_with_its_reason() {
+    for name in NAMES {
+        let (v, _, _) = vehicle(name);
+        let mut s = v.snapshot();
+        let Some(f) = s.filter.as_mut() else {
+            panic!("{name} is tracking")
+        };
+        let reason = match f {
+            FilterState::Mekf(_, m) => {
+                m.q.w *= 2.0;
+                "MEKF attitude is not a unit quaternion"
+            }
+            FilterState::Qpf(_, q) => {
+                q.cloud.w[0] += 0.5;
+                "particle weights are not normalised"
+            }
+            FilterState::Usque(..) => unreachable!(),
+        };
+        let e = VehicleState::restore(s).err().expect("refused");
+        assert!(e.contains(reason), "{name}: {e}");
+        // And the snapshot of a good vehicle restores to the same vehicle.
+        let again = VehicleState::restore(v.snapshot()).unwrap();
+        assert_eq!(again.snapshot(), v.snapshot(), "{name}");
+    }
 }

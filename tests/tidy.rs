@@ -47,6 +47,41 @@ fn the_core_crate_depends_on_no_io_crate() {
     }
 }
 
+/// The core serialises no state (a checkpoint is `service::persist`'s own format): serde appears only
+/// behind the optional `serde` feature, on the configuration sections read from a file.
+#[test]
+fn the_core_serialises_no_state() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
+    let serde_line = manifest
+        .lines()
+        .find(|l| l.starts_with("serde "))
+        .expect("serde (optional) in the core's manifest");
+    assert!(serde_line.contains("optional = true"), "{serde_line}");
+    let mut files = Vec::new();
+    rust_files(&root.join("crates/attitude-core/src"), &mut files);
+    let mut uses = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim_start();
+            if line.starts_with("//") || !line.contains("serde") {
+                continue;
+            }
+            let config_derive = line.starts_with("#[cfg_attr(feature = \"serde\"");
+            let in_config = f.ends_with("ahrs/mod.rs");
+            if !(config_derive && in_config) {
+                uses.push(format!("{}:{}: {line}", f.display(), n + 1));
+            }
+        }
+    }
+    assert!(
+        uses.is_empty(),
+        "serde in the core beyond the configuration:\n{}",
+        uses.join("\n")
+    );
+}
+
 #[test]
 fn numeric_core_does_no_io() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -207,7 +207,7 @@ mod tests {
     #[test]
     fn honesty_of_a_consistent_and_an_overconfident_estimate() {
         use rand::SeedableRng;
-        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7);
+        let mut rng = attitude_core::rng::Xoshiro256PlusPlus::seed_from_u64(7);
         let truth = Quaternion::from_euler_321(0.1, 0.4, -2.0);
         let sigma = 1.0 * DEG;
         let n = 40_000;

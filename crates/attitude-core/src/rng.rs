@@ -4,6 +4,9 @@
 //!   runs, the simulator's vehicles);
 //! * [`fnv1a`] and [`splitmix64_mix`]: stable 64-bit hashes (a vehicle's filter seed and sample
 //!   fingerprints, a fleet's rendezvous weights); the same on every machine and in every version;
+//! * [`Xoshiro256PlusPlus`]: the generator of the particle filter and the simulator (Blackman & Vigna),
+//!   bit for bit the one of the `rand_xoshiro` crate (pinned by a test against it), with its state
+//!   readable and settable so that a checkpoint can save and restore it without serde in the core;
 //! * fast standard-normal draws for the particle filter: the Ziggurat method (Marsaglia & Tsang 2000,
 //!   in Doornik's 128-layer form) on one 64-bit draw per sample on the fast path (≈ 99% of draws): 53
 //!   bits of uniform and the layer index from the low 7 bits. Seedable and deterministic through the
@@ -46,6 +49,98 @@ pub fn derive_seed(seed: u64, stream: u64) -> u64 {
         seed.wrapping_add(stream.wrapping_mul(GOLDEN_GAMMA))
             .wrapping_add(GOLDEN_GAMMA),
     )
+}
+
+/// Xoshiro256++ (Blackman & Vigna 2019): 256 bits of state, period 2²⁵⁶ − 1, the same output stream
+/// as `rand_xoshiro::Xoshiro256PlusPlus` for the same seed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Xoshiro256PlusPlus {
+    s: [u64; 4],
+}
+
+impl Xoshiro256PlusPlus {
+    /// The generator in state `s` (as [`Xoshiro256PlusPlus::state`] returned it); `None` for the
+    /// all-zero state, which the generator never leaves.
+    pub fn from_state(s: [u64; 4]) -> Option<Self> {
+        (s != [0; 4]).then_some(Xoshiro256PlusPlus { s })
+    }
+
+    /// The 256-bit state (what a checkpoint saves).
+    pub fn state(&self) -> [u64; 4] {
+        self.s
+    }
+
+    /// Advances the generator by 2¹²⁸ draws (independent sub-streams).
+    pub fn jump(&mut self) {
+        const JUMP: [u64; 4] = [
+            0x180e_c6d3_3cfd_0aba,
+            0xd5a6_1266_f0c9_392c,
+            0xa958_2618_e03f_c9aa,
+            0x39ab_dc45_29b1_661c,
+        ];
+        let mut acc = [0u64; 4];
+        for word in JUMP {
+            for bit in 0..64 {
+                if word & (1u64 << bit) != 0 {
+                    for (a, s) in acc.iter_mut().zip(self.s) {
+                        *a ^= s;
+                    }
+                }
+                self.next_u64();
+            }
+        }
+        self.s = acc;
+    }
+}
+
+impl rand::SeedableRng for Xoshiro256PlusPlus {
+    type Seed = [u8; 32];
+
+    fn from_seed(seed: [u8; 32]) -> Self {
+        let mut s = [0u64; 4];
+        for (i, w) in s.iter_mut().enumerate() {
+            *w = u64::from_le_bytes(seed[8 * i..8 * i + 8].try_into().expect("8 bytes"));
+        }
+        Self::from_state(s).unwrap_or_else(|| Self::seed_from_u64(0))
+    }
+
+    /// The state is four successive outputs of SplitMix64 seeded with `seed` (as `rand_xoshiro` does).
+    fn seed_from_u64(seed: u64) -> Self {
+        let mut x = seed;
+        let s = std::array::from_fn(|_| {
+            x = x.wrapping_add(GOLDEN_GAMMA);
+            splitmix64_mix(x)
+        });
+        Xoshiro256PlusPlus { s }
+    }
+}
+
+impl RngCore for Xoshiro256PlusPlus {
+    #[inline]
+    fn next_u32(&mut self) -> u32 {
+        (self.next_u64() >> 32) as u32
+    }
+
+    #[inline]
+    fn next_u64(&mut self) -> u64 {
+        let s = &mut self.s;
+        let out = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
+        let t = s[1] << 17;
+        s[2] ^= s[0];
+        s[3] ^= s[1];
+        s[1] ^= s[2];
+        s[0] ^= s[3];
+        s[2] ^= t;
+        s[3] = s[3].rotate_left(45);
+        out
+    }
+
+    fn fill_bytes(&mut self, dest: &mut [u8]) {
+        for chunk in dest.chunks_mut(8) {
+            let b = self.next_u64().to_le_bytes();
+            chunk.copy_from_slice(&b[..chunk.len()]);
+        }
+    }
 }
 
 const LAYERS: usize = 128;
@@ -176,7 +271,36 @@ fn tail<G: RngCore + ?Sized>(rng: &mut G, negative: bool) -> f64 {
 mod tests {
     use super::*;
     use rand::SeedableRng;
-    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// Our generator against the `rand_xoshiro` crate's, over seeds, `u64`/`u32` draws, byte fills
+    /// and a state round trip.
+    #[test]
+    fn xoshiro_is_rand_xoshiros_stream() {
+        for seed in [0u64, 1, 7, 42, 0xdead_beef, u64::MAX] {
+            let mut ours = Xoshiro256PlusPlus::seed_from_u64(seed);
+            let mut theirs = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+            for _ in 0..1000 {
+                assert_eq!(ours.next_u64(), theirs.next_u64());
+            }
+            assert_eq!(ours.next_u32(), theirs.next_u32());
+            let (mut a, mut b) = ([0u8; 29], [0u8; 29]);
+            ours.fill_bytes(&mut a);
+            theirs.fill_bytes(&mut b);
+            assert_eq!(a, b);
+            let mut copy = Xoshiro256PlusPlus::from_state(ours.state()).unwrap();
+            let next = theirs.next_u64();
+            assert_eq!(copy.next_u64(), next);
+            assert_eq!(ours.next_u64(), next);
+        }
+        let seed: [u8; 32] = std::array::from_fn(|i| i as u8 * 7 + 1);
+        let mut ours = Xoshiro256PlusPlus::from_seed(seed);
+        let mut theirs = rand_xoshiro::Xoshiro256PlusPlus::from_seed(seed);
+        assert_eq!(ours.next_u64(), theirs.next_u64());
+        assert!(Xoshiro256PlusPlus::from_state([0; 4]).is_none());
+        ours.jump();
+        theirs.jump();
+        assert_eq!(ours.next_u64(), theirs.next_u64());
+    }
 
     #[test]
     fn moments_and_tails_of_a_million_draws() {

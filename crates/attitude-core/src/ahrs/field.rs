@@ -36,20 +36,20 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
 
 /// Recursive least squares with exponential forgetting for `m = A C + o`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct HardIronFit {
     /// `Σ λ HᵀH`, `Σ λ Hᵀm`, `Σ λ mᵀm`, `Σ λ` (samples), with `H = [A, I]`.
-    info: Matrix6<f64>,
-    rhs: Vector6<f64>,
-    ss: f64,
-    n: f64,
+    pub info: Matrix6<f64>,
+    pub rhs: Vector6<f64>,
+    pub ss: f64,
+    pub n: f64,
     /// Low-passed squared residual of the readings against the last solution.
-    recent_ms: f64,
-    solution: Option<HardIronSolution>,
+    pub recent_ms: f64,
+    pub solution: Option<HardIronSolution>,
 }
 
 /// A solution of [`HardIronFit`].
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HardIronSolution {
     /// The field in the gyro frame and the body-frame offset, in the reading's units.
     pub field_gyro: Vector3<f64>,
@@ -167,30 +167,30 @@ pub enum HeadingObservation {
     Use(VectorObservation, f64),
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FieldChannel {
     /// The reference field in the reference frame: unit direction, norm (reading units), dip (rad).
-    direction: Vector3<f64>,
-    norm: f64,
-    dip: f64,
+    pub direction: Vector3<f64>,
+    pub norm: f64,
+    pub dip: f64,
     /// The accepted body-frame offset (hard iron) and its 1σ, reading units.
-    offset: Vector3<f64>,
-    offset_sigma: f64,
+    pub offset: Vector3<f64>,
+    pub offset_sigma: f64,
     /// Low-passed norm and dip of the corrected reading.
-    lp_norm: f64,
-    lp_dip: f64,
-    lp_ready: bool,
-    disturbed: bool,
-    undisturbed_s: f64,
+    pub lp_norm: f64,
+    pub lp_dip: f64,
+    pub lp_ready: bool,
+    pub disturbed: bool,
+    pub undisturbed_s: f64,
     /// Rejection time used from the budget, s.
-    rejected_s: f64,
-    candidate_norm: f64,
-    candidate_dip: f64,
-    candidate_s: f64,
-    fit: HardIronFit,
-    fit_ok_s: f64,
-    since_update_s: f64,
-    since_solve_s: f64,
+    pub rejected_s: f64,
+    pub candidate_norm: f64,
+    pub candidate_dip: f64,
+    pub candidate_s: f64,
+    pub fit: HardIronFit,
+    pub fit_ok_s: f64,
+    pub since_update_s: f64,
+    pub since_solve_s: f64,
     /// Counts: accepted new fields and hard-iron offsets.
     pub new_fields: u64,
     pub hard_iron_changes: u64,

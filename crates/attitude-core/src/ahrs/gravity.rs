@@ -36,18 +36,18 @@ pub enum TiltObservation {
     Use(VectorObservation),
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct GravityChannel {
     /// The specific force in the gyro frame, low-passed with `τ_a` and with `2 τ_a`.
-    lp: Lowpass3,
-    lp2: Lowpass3,
+    pub lp: Lowpass3,
+    pub lp2: Lowpass3,
     /// The low-passed square of the horizontal part of their difference, (m/s²)².
-    motion_ms: f64,
+    pub motion_ms: f64,
     /// Gravity's norm, learned at rest, m/s².
-    g0: f64,
-    since_update_s: f64,
+    pub g0: f64,
+    pub since_update_s: f64,
     /// The last 1σ of the low-passed direction, rad (diagnostics).
-    sigma_lp_rad: f64,
+    pub sigma_lp_rad: f64,
 }
 
 impl GravityChannel {

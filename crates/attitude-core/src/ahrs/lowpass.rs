@@ -24,15 +24,15 @@ fn coefficients(tau_s: f64, dt_s: f64) -> [f64; 5] {
 }
 
 /// A second-order Butterworth low-pass of a 3-vector.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Lowpass3 {
-    tau_s: f64,
+    pub tau_s: f64,
     /// The interval the coefficients are for, and the coefficients.
-    dt_s: f64,
-    c: [f64; 5],
+    pub dt_s: f64,
+    pub c: [f64; 5],
     /// The last two inputs and outputs (`x[0]`, `y[0]` the latest); `None` before the first input.
-    x: [Vector3<f64>; 2],
-    y: Option<[Vector3<f64>; 2]>,
+    pub x: [Vector3<f64>; 2],
+    pub y: Option<[Vector3<f64>; 2]>,
 }
 
 impl Lowpass3 {

@@ -30,6 +30,7 @@ pub mod field;
 pub mod gravity;
 pub mod lowpass;
 pub mod rest;
+mod state;
 
 use crate::attitude::{skew, Quaternion};
 use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
@@ -40,11 +41,13 @@ use field::{FieldChannel, HeadingObservation};
 use gravity::{GravityChannel, TiltObservation};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
+pub use state::{AhrsState, Phase};
 
 /// Everything the pipeline assumes about the sensors (`service.imu` of the configuration;
 /// `config/imu.json5` is the preset). The gyro noise itself is the filter's (`service.filter`).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct AhrsConfig {
     /// Uncertainty of a sample's time stamp against the true instant it describes, s (sensor latency
     /// and clock offset the sender cannot know). A published estimate is uncertain by the rotation
@@ -58,8 +61,9 @@ pub struct AhrsConfig {
 }
 
 /// The alignment: the attitude from the first samples.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct InitConfig {
     /// Samples are averaged over this long before the filter starts, s (0: the first sample).
     pub duration_s: f64,
@@ -68,8 +72,9 @@ pub struct InitConfig {
     pub heading_sigma_rad: f64,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct RestConfig {
     pub enabled: bool,
     pub lowpass_s: f64,
@@ -82,8 +87,9 @@ pub struct RestConfig {
     pub bias_sigma_rad_s: f64,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct AccConfig {
     /// Time constant of the low-pass in the gyro frame, s.
     pub lowpass_s: f64,
@@ -106,8 +112,9 @@ pub struct AccConfig {
     pub floor_lp_factor: f64,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct MagConfig {
     pub enabled: bool,
     /// Low-pass of the norm and dip judged for disturbances, s.
@@ -137,8 +144,9 @@ pub struct MagConfig {
     pub hard_iron: HardIronConfig,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct HardIronConfig {
     pub enabled: bool,
     /// Forgetting time of the fit, s; solved every `solve_interval_s`; accepted after `confirm_s`.
@@ -158,8 +166,9 @@ pub struct HardIronConfig {
     pub restart_weight: f64,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct RecoveryConfig {
     /// Normalised innovation squared above which a tilt (2 dof) or heading (1 dof) update is
     /// inconsistent, and how long in a row that must last before the covariance is widened.
@@ -380,7 +389,7 @@ impl AhrsConfig {
 }
 
 /// What the pipeline has done so far and what it sees now (published with every estimate).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct AhrsCounts {
     pub samples: u64,
     pub at_rest: bool,
@@ -399,21 +408,8 @@ pub struct AhrsCounts {
     pub tilt_sigma_lp_rad: f64,
 }
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-enum Phase {
-    /// Collecting the alignment: sums since `t0_s`.
-    Aligning {
-        t0_s: f64,
-        acc: Vector3<f64>,
-        mag: Vector3<f64>,
-        n_acc: u32,
-        n_mag: u32,
-    },
-    Running,
-}
-
 /// The pipeline's state for one vehicle.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Ahrs {
     phase: Phase,
     /// The last sample's time.

@@ -8,13 +8,13 @@ use super::lowpass::Lowpass3;
 use super::RestConfig;
 use nalgebra::Vector3;
 
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RestDetector {
-    gyr_lp: Lowpass3,
-    acc_lp: Lowpass3,
+    pub gyr_lp: Lowpass3,
+    pub acc_lp: Lowpass3,
     /// Time without a break of the conditions, s.
-    still_s: f64,
-    at_rest: bool,
+    pub still_s: f64,
+    pub at_rest: bool,
 }
 
 impl RestDetector {

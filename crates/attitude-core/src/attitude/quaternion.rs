@@ -44,7 +44,7 @@ pub fn half_angle_terms(theta_sq: f64) -> (f64, f64) {
 ///   `w ≥ 0`; this type is never serialised directly.
 ///
 /// These statements are pinned by tests with known numbers (`tests/conventions.rs`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quaternion {
     pub x: f64,
     pub y: f64,

@@ -9,7 +9,7 @@ use super::quaternion::Quaternion;
 use nalgebra::Vector3;
 
 /// The parameters `(a, f)` of a generalized Rodrigues representation.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grp {
     pub a: f64,
     pub f: f64,

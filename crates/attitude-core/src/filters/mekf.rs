@@ -5,7 +5,7 @@
 
 use super::{
     check_commit, is_spd, symmetrize, Diagnostics, Driver, Estimate, FilterConfig, FilterCore,
-    FilterError, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
+    FilterError, FilterSpec, FilterState, GyroErrors, InitialState, MekfState,
 };
 use crate::attitude::{skew, Quaternion};
 use crate::sensors::{imu, Aspect, GyroNoise, VectorObservation};
@@ -218,7 +218,7 @@ pub fn heading_update(
 }
 
 /// The MEKF state.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug)]
 pub struct Mekf {
     gyro: GyroNoise,
     gyro_errors: GyroErrors,
@@ -229,6 +229,18 @@ pub struct Mekf {
 }
 
 impl Mekf {
+    /// The MEKF of a saved state (checked by [`FilterState::restore`]).
+    pub(super) fn from_state(s: MekfState) -> Self {
+        Mekf {
+            gyro: s.gyro,
+            gyro_errors: s.gyro_errors,
+            q: s.q,
+            bias: s.bias,
+            p: s.p,
+            diagnostics: s.diagnostics,
+        }
+    }
+
     pub fn new(config: &FilterConfig, initial: &InitialState) -> Result<Self, FilterError> {
         let q = initial.q.normalized().ok_or_else(|| {
             FilterError::InvalidConfig("initial quaternion has no direction".into())
@@ -391,8 +403,19 @@ impl FilterCore for Mekf {
         block += cov_rad2;
     }
 
-    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
-        SavedFilterRef::Mekf(driver)
+    fn state(driver: &Driver<Self>) -> FilterState {
+        let m = driver.core();
+        FilterState::Mekf(
+            driver.driver_state(),
+            MekfState {
+                gyro: m.gyro,
+                gyro_errors: m.gyro_errors,
+                q: m.q,
+                bias: m.bias,
+                p: m.p,
+                diagnostics: m.diagnostics.clone(),
+            },
+        )
     }
 
     fn estimate(&self) -> Estimate {

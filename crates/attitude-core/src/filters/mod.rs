@@ -13,6 +13,7 @@
 
 pub mod mekf;
 pub mod qpf;
+pub mod state;
 pub mod usque;
 
 use crate::attitude::Quaternion;
@@ -24,10 +25,11 @@ use thiserror::Error;
 
 pub use mekf::Mekf;
 pub use qpf::{Kernel, Qpf, QpfOptions};
+pub use state::{DriverState, FilterState, MekfState, QpfState, UsqueState};
 pub use usque::{Usque, UsqueOptions};
 
 /// Which estimator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FilterKind {
     /// Multiplicative extended Kalman filter (the baseline).
     Mekf,
@@ -39,7 +41,7 @@ pub enum FilterKind {
 
 /// How the fiducial quaternion that links the global quaternion and the local error space is chosen
 /// (Chang 2014; docs/algorithms.md §3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Fiducial {
     /// The previous estimate propagated like an EKF (Chang 2014, Eq. 1; original USQUE and QPF).
     Propagated,
@@ -48,7 +50,7 @@ pub enum Fiducial {
 }
 
 /// A filter and, for the sampling filters, its fiducial: `mekf`, `usque:propagated`, `qpf:average`, …
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct FilterSpec {
     pub kind: FilterKind,
     /// `None` for the MEKF, which has no fiducial.
@@ -149,7 +151,7 @@ impl FromStr for FilterSpec {
 }
 
 /// Settings common to every filter, plus the sampling filters' own.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FilterConfig {
     pub spec: FilterSpec,
     /// The gyro noise the filter assumes.
@@ -163,13 +165,12 @@ pub struct FilterConfig {
     /// How the uncertainty grows while gyro samples are missing.
     pub gap: GapModel,
     /// Gyro errors beyond the Farrenkopf model (none by default).
-    #[serde(default)]
     pub gyro_errors: GyroErrors,
 }
 
 /// Gyro errors of real (MEMS) gyros beyond the Farrenkopf model of [`GyroNoise`]. The default adds
 /// nothing (the filters are then exactly the textbook ones).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GyroErrors {
     /// Rate-proportional angle noise `k`, √s: the attitude variance grows by `(k ‖ω̂‖)² Δt` per step on
     /// top of `σ_v² Δt`, for the scale-factor, misalignment and g-sensitivity errors that make a gyro
@@ -235,7 +236,7 @@ impl GyroErrors {
 /// whole gap. After a gap of `τ` the added attitude variance per axis is
 /// `σ_a² τ⁴/4 + (σ_v²/Δt_g) τ²`, added segment by segment as the filter propagates, counted from the
 /// last sample.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GapModel {
     /// A gap starts no sooner than this after the last gyro sample, s.
     pub after_s: f64,
@@ -308,7 +309,7 @@ impl InitialState {
 }
 
 /// What a filter knows about itself. Fields a filter does not have are `None`.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diagnostics {
     /// Gyro propagations and vector updates processed.
     pub propagations: u64,
@@ -334,7 +335,7 @@ pub struct Diagnostics {
 }
 
 /// A filter's estimate at its current time.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Estimate {
     pub t_s: f64,
     pub q: Quaternion,
@@ -394,8 +395,8 @@ pub trait FilterCore: Send {
     /// does not know of: a gyro gap, a re-acquisition). `cov_rad2` is finite, symmetric and positive
     /// semi-definite.
     fn inflate_attitude(&mut self, cov_rad2: &Matrix3<f64>);
-    /// Borrows the whole filter (with its driver) for a checkpoint.
-    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_>
+    /// The whole filter (with its driver's bookkeeping) as plain data, for a checkpoint.
+    fn state(driver: &Driver<Self>) -> FilterState
     where
         Self: Sized;
 }
@@ -423,46 +424,15 @@ pub trait AttitudeFilter: Send {
     /// The gyro-bias estimate, rad/s (cheaper than [`AttitudeFilter::estimate`]).
     fn bias_rad_s(&self) -> Vector3<f64>;
     fn estimate(&self) -> Estimate;
-    /// The filter's complete state, borrowed for a checkpoint ([`SavedFilter`] restores it).
-    fn saved(&self) -> SavedFilterRef<'_>;
-}
-
-/// A filter's complete state as a checkpoint holds it: the borrowed form writes, the owned form
-/// ([`SavedFilter`]) reads; both serialise identically.
-#[derive(serde::Serialize)]
-pub enum SavedFilterRef<'a> {
-    Mekf(&'a Driver<Mekf>),
-    Usque(&'a Driver<Usque>),
-    Qpf(&'a Driver<Qpf>),
-}
-
-/// A filter read back from a checkpoint.
-#[derive(serde::Deserialize)]
-pub enum SavedFilter {
-    Mekf(Driver<Mekf>),
-    Usque(Driver<Usque>),
-    Qpf(Driver<Qpf>),
-}
-
-impl SavedFilter {
-    /// The filter behind the shared interface, working buffers re-allocated.
-    pub fn into_filter(self) -> Box<dyn AttitudeFilter> {
-        match self {
-            SavedFilter::Mekf(d) => Box::new(d),
-            SavedFilter::Usque(d) => Box::new(d),
-            SavedFilter::Qpf(mut d) => {
-                d.core.reallocate();
-                Box::new(d)
-            }
-        }
-    }
+    /// The filter's complete state as plain data, for a checkpoint ([`FilterState::restore`]
+    /// rebuilds the filter from it).
+    fn state(&self) -> FilterState;
 }
 
 /// Measurement times closer than this (s) are the same instant.
 pub const SAME_INSTANT_S: f64 = 1e-9;
 
 /// Holds the time and the last gyro rate, and drives a [`FilterCore`].
-#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Driver<F: FilterCore> {
     core: F,
     t_s: Option<f64>,
@@ -710,8 +680,8 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
         e
     }
 
-    fn saved(&self) -> SavedFilterRef<'_> {
-        F::saved(self)
+    fn state(&self) -> FilterState {
+        F::state(self)
     }
 }
 

@@ -29,27 +29,27 @@
 
 use super::{
     Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind,
-    FilterSpec, GyroErrors, InitialState, SavedFilterRef,
+    FilterSpec, FilterState, GyroErrors, InitialState, QpfState,
 };
 use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
+use crate::rng::Xoshiro256PlusPlus;
 use crate::rng::{standard_normal, ziggurat};
 use crate::sensors::gyro::normal3;
 use crate::sensors::{imu, GyroNoise, VectorObservation};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_distr::{Beta, Distribution, StandardNormal};
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Regularisation kernel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
     Gaussian,
     Epanechnikov,
 }
 
 /// QPF tuning. Defaults are the values that measured well (docs/algorithms.md §3, tuning).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QpfOptions {
     pub kernel: Kernel,
     /// Scale on the optimal bandwidth `h_opt = A N^{−1/(n+4)}`; 1–2 work with the shrinkage kernel.
@@ -75,6 +75,25 @@ impl Default for QpfOptions {
             pc_max_stages: 30,
             inflation: 0.02,
         }
+    }
+}
+
+impl QpfOptions {
+    pub(super) fn validate(&self) -> Result<(), FilterError> {
+        let bad = |what: &str| Err(FilterError::InvalidConfig(what.to_string()));
+        if !(self.bandwidth_scale > 0.0 && self.bandwidth_scale.is_finite()) {
+            return bad("bandwidth_scale must be positive");
+        }
+        if !(self.resample_fraction > 0.0 && self.resample_fraction <= 1.0) {
+            return bad("resample_fraction must be in (0, 1]");
+        }
+        if !(self.pc_spread > 0.0) || self.pc_max_stages == 0 {
+            return bad("progressive correction needs pc_spread > 0 and pc_max_stages ≥ 1");
+        }
+        if !(self.inflation >= 0.0 && self.inflation < 1.0) {
+            return bad("inflation must be in [0, 1)");
+        }
+        Ok(())
     }
 }
 
@@ -107,21 +126,50 @@ impl Kernel {
     }
 }
 
-/// The particle cloud, structure of arrays (the layout the per-particle loops vectorise over).
-#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
-struct Cloud {
-    qx: Vec<f64>,
-    qy: Vec<f64>,
-    qz: Vec<f64>,
-    qw: Vec<f64>,
-    bx: Vec<f64>,
-    by: Vec<f64>,
-    bz: Vec<f64>,
-    /// Normalised weights (`Σ w = 1`).
-    w: Vec<f64>,
+/// The particle cloud, structure of arrays (the layout the per-particle loops vectorise over):
+/// quaternion components, gyro biases (rad/s) and normalised weights (`Σ w = 1`), all of one length.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Cloud {
+    pub qx: Vec<f64>,
+    pub qy: Vec<f64>,
+    pub qz: Vec<f64>,
+    pub qw: Vec<f64>,
+    pub bx: Vec<f64>,
+    pub by: Vec<f64>,
+    pub bz: Vec<f64>,
+    pub w: Vec<f64>,
 }
 
 impl Cloud {
+    /// A cloud read back from elsewhere (a checkpoint) is usable: two or more particles, every array
+    /// of one length, finite unit quaternions and biases, non-negative weights summing to 1.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.w.len();
+        let cols = [
+            &self.qx, &self.qy, &self.qz, &self.qw, &self.bx, &self.by, &self.bz,
+        ];
+        if n < 2 || cols.iter().any(|c| c.len() != n) {
+            return Err(format!(
+                "particle cloud of inconsistent length (weights: {n})"
+            ));
+        }
+        if !cols.iter().all(|c| c.iter().all(|v| v.is_finite())) {
+            return Err("particle cloud is not finite".into());
+        }
+        for i in 0..n {
+            let n2 =
+                self.qx[i].powi(2) + self.qy[i].powi(2) + self.qz[i].powi(2) + self.qw[i].powi(2);
+            if (n2 - 1.0).abs() > 1e-6 {
+                return Err(format!("particle {i} is not a unit quaternion"));
+            }
+        }
+        let sum: f64 = self.w.iter().sum();
+        if !self.w.iter().all(|w| *w >= 0.0 && w.is_finite()) || (sum - 1.0).abs() > 1e-6 {
+            return Err(format!("particle weights are not normalised (sum {sum})"));
+        }
+        Ok(())
+    }
+
     fn with_len(n: usize) -> Self {
         let z = vec![0.0; n];
         Cloud {
@@ -227,7 +275,7 @@ fn components(q: &Quaternion) -> [f64; 4] {
 }
 
 /// The quaternion particle filter.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug)]
 pub struct Qpf {
     fiducial: Fiducial,
     options: QpfOptions,
@@ -235,21 +283,15 @@ pub struct Qpf {
     gyro_errors: GyroErrors,
     cloud: Cloud,
     /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update back.
-    /// (Working buffers are not part of a checkpoint: [`Qpf::reallocate`] sizes them after a restore.)
-    #[serde(skip)]
+    /// (Working buffers are not part of a checkpoint: they are sized again on a restore.)
     scratch: Cloud,
-    #[serde(skip)]
     backup: Cloud,
-    #[serde(skip)]
     log_lik: Vec<f64>,
     /// Per-observation constants of the current update (reused buffer).
-    #[serde(skip)]
     obs_terms: Vec<[f64; 11]>,
-    #[serde(skip)]
     resample_index: Vec<usize>,
     /// Local states `[δp; β − β_ref]` of every particle about the fiducial of the last
     /// `locals_and_moments` (reused by the regularisation that may follow).
-    #[serde(skip)]
     local: [Vec<f64>; 6],
     /// The previous estimate propagated with `ω̃ − β̂` (Chang 2014, Eq. 1): the `propagated`
     /// fiducial, the sign reference of the average, and the fallback when the average is undecidable.
@@ -265,15 +307,33 @@ pub struct Qpf {
 }
 
 impl Qpf {
-    /// Sizes the working buffers for the cloud (after a restore from a checkpoint, which omits them).
-    pub fn reallocate(&mut self) {
-        let n = self.cloud.w.len();
-        self.scratch = self.cloud.clone();
-        self.backup = self.cloud.clone();
-        self.log_lik = vec![0.0; n];
-        self.obs_terms = Vec::with_capacity(16);
-        self.resample_index = vec![0; n];
-        self.local = std::array::from_fn(|_| vec![0.0; n]);
+    /// The QPF of a saved state (checked by [`FilterState::restore`]), working buffers sized for its
+    /// cloud.
+    pub(super) fn from_state(s: QpfState) -> Result<Self, FilterError> {
+        let n = s.cloud.w.len();
+        let rng = Xoshiro256PlusPlus::from_state(s.rng).ok_or_else(|| {
+            FilterError::InvalidConfig("saved filter state: the generator's state is zero".into())
+        })?;
+        Ok(Qpf {
+            fiducial: s.fiducial,
+            options: s.options,
+            gyro: s.gyro,
+            gyro_errors: s.gyro_errors,
+            scratch: s.cloud.clone(),
+            backup: s.cloud.clone(),
+            cloud: s.cloud,
+            log_lik: vec![0.0; n],
+            obs_terms: Vec::with_capacity(16),
+            resample_index: vec![0; n],
+            local: std::array::from_fn(|_| vec![0.0; n]),
+            q_prop: s.q_prop,
+            q_hat: s.q_hat,
+            beta_hat: s.beta_hat,
+            p_hat: s.p_hat,
+            stale: s.stale,
+            rng,
+            diagnostics: s.diagnostics,
+        })
     }
 
     pub fn new(
@@ -288,19 +348,8 @@ impl Qpf {
                 "particles must be at least 2, got {n}"
             )));
         }
+        options.validate()?;
         let bad = |what: &str| Err(FilterError::InvalidConfig(what.to_string()));
-        if !(options.bandwidth_scale > 0.0 && options.bandwidth_scale.is_finite()) {
-            return bad("bandwidth_scale must be positive");
-        }
-        if !(options.resample_fraction > 0.0 && options.resample_fraction <= 1.0) {
-            return bad("resample_fraction must be in (0, 1]");
-        }
-        if !(options.pc_spread > 0.0) || options.pc_max_stages == 0 {
-            return bad("progressive correction needs pc_spread > 0 and pc_max_stages ≥ 1");
-        }
-        if !(options.inflation >= 0.0 && options.inflation < 1.0) {
-            return bad("inflation must be in [0, 1)");
-        }
         let q0 = initial.q.normalized().ok_or_else(|| {
             FilterError::InvalidConfig("initial quaternion has no direction".into())
         })?;
@@ -1000,8 +1049,25 @@ impl FilterCore for Qpf {
         self.stale = true;
     }
 
-    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
-        SavedFilterRef::Qpf(driver)
+    fn state(driver: &Driver<Self>) -> FilterState {
+        let f = driver.core();
+        FilterState::Qpf(
+            driver.driver_state(),
+            QpfState {
+                fiducial: f.fiducial,
+                options: f.options,
+                gyro: f.gyro,
+                gyro_errors: f.gyro_errors,
+                cloud: f.cloud.clone(),
+                q_prop: f.q_prop,
+                q_hat: f.q_hat,
+                beta_hat: f.beta_hat,
+                p_hat: f.p_hat,
+                stale: f.stale,
+                rng: f.rng.state(),
+                diagnostics: f.diagnostics.clone(),
+            },
+        )
     }
 
     fn estimate(&self) -> Estimate {

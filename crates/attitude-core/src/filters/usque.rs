@@ -37,7 +37,8 @@
 
 use super::{
     check_commit, is_spd, symmetrize, Diagnostics, Driver, Estimate, Fiducial, FilterConfig,
-    FilterCore, FilterError, FilterKind, FilterSpec, GyroErrors, InitialState, SavedFilterRef,
+    FilterCore, FilterError, FilterKind, FilterSpec, FilterState, GyroErrors, InitialState,
+    UsqueState,
 };
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::sensors::{Aspect, GyroNoise, VectorObservation};
@@ -49,7 +50,7 @@ pub const N_STATE: usize = 6;
 pub const N_SIGMA: usize = 2 * N_STATE + 1;
 
 /// USQUE settings.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UsqueOptions {
     /// The local attitude-error chart. Default `a = 1, f = 4` ([`Grp::USQUE`]).
     pub grp: Grp,
@@ -77,7 +78,7 @@ impl UsqueOptions {
         )
     }
 
-    fn validate(&self) -> Result<(), FilterError> {
+    pub(super) fn validate(&self) -> Result<(), FilterError> {
         if !(self.lambda.is_finite() && self.lambda > 0.0) {
             return Err(FilterError::InvalidConfig(format!(
                 "USQUE lambda must be positive and finite (got {})",
@@ -107,16 +108,16 @@ pub fn process_noise_bar(gyro: &GyroNoise, dt_s: f64) -> Matrix6<f64> {
 }
 
 /// Sigma points kept from a propagation for the next update.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-struct SigmaPoints {
+#[derive(Clone, Debug, PartialEq)]
+pub struct SigmaPoints {
     /// The global quaternions `q⁻(i)`.
-    q: [Quaternion; N_SIGMA],
+    pub q: [Quaternion; N_SIGMA],
     /// The local states `χ(i) = [GRP(q⁻(i) ⊗ q_ref⁻¹); χ^β(i)]`.
-    chi: [Vector6<f64>; N_SIGMA],
+    pub chi: [Vector6<f64>; N_SIGMA],
 }
 
 /// The USQUE state.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug)]
 pub struct Usque {
     gyro: GyroNoise,
     gyro_errors: GyroErrors,
@@ -195,6 +196,25 @@ impl Usque {
             sigma: None,
             diagnostics,
         })
+    }
+
+    /// The USQUE of a saved state (checked by [`FilterState::restore`]); the weights follow from
+    /// the options.
+    pub(super) fn from_state(s: UsqueState) -> Self {
+        let (w0, wi) = s.options.weights();
+        Usque {
+            gyro: s.gyro,
+            gyro_errors: s.gyro_errors,
+            options: s.options,
+            fiducial: s.fiducial,
+            w0,
+            wi,
+            q_ref: s.q_ref,
+            x: s.x,
+            p: s.p,
+            sigma: s.sigma,
+            diagnostics: s.diagnostics,
+        }
     }
 
     pub fn options(&self) -> &UsqueOptions {
@@ -566,8 +586,22 @@ impl FilterCore for Usque {
         self.sigma = None;
     }
 
-    fn saved(driver: &Driver<Self>) -> SavedFilterRef<'_> {
-        SavedFilterRef::Usque(driver)
+    fn state(driver: &Driver<Self>) -> FilterState {
+        let u = driver.core();
+        FilterState::Usque(
+            driver.driver_state(),
+            UsqueState {
+                gyro: u.gyro,
+                gyro_errors: u.gyro_errors,
+                options: u.options,
+                fiducial: u.fiducial,
+                q_ref: u.q_ref,
+                x: u.x,
+                p: u.p,
+                sigma: u.sigma.clone(),
+                diagnostics: u.diagnostics.clone(),
+            },
+        )
     }
 
     fn estimate(&self) -> Estimate {

@@ -5,7 +5,7 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 
 /// Gyro noise spectral densities.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GyroNoise {
     /// Angle random walk `σ_v`, rad/s^½.
     pub sigma_v: f64,

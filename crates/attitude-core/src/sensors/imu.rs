@@ -37,7 +37,7 @@ use super::{Aspect, VectorObservation};
 use crate::attitude::Quaternion;
 
 /// The accelerometer as a gravity-direction observation.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GravityModel {
     /// `k`: the direction's 1σ is `σ/‖r‖ · (1 + k·d)`, `d = |‖b‖/‖r‖ − 1|`.
     pub sigma_norm_scale: f64,
@@ -45,14 +45,13 @@ pub struct GravityModel {
     pub norm_gate: f64,
     /// Time constant of a low-pass filter applied to the measurement in a frame that turns with the
     /// gyro only, s (0: none). See [`GravityModel::lowpass`].
-    #[serde(default)]
     pub lowpass_s: f64,
 }
 
 /// The state of [`GravityModel::lowpass`]: the time, the filtered measurement in the body frame of
 /// that time, and the estimate after that time's update (`posterior`, which [`SensorState::settle`]
 /// records).
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LowpassState {
     pub t_s: Option<f64>,
     pub body_frame: Vector3<f64>,
@@ -60,7 +59,7 @@ pub struct LowpassState {
 }
 
 /// The magnetometer as a field-direction observation with disturbance detection.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FieldModel {
     /// `k`: the direction's 1σ is `σ/‖r‖ · (1 + k·d)`, `d = |‖b‖/‖r‖ − 1|`.
     pub sigma_norm_scale: f64,
@@ -79,14 +78,14 @@ pub struct FieldModel {
 
 /// The model of a named sensor (`service.sensors.NAME.kind`); a sensor without one is a plain vector
 /// observation.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SensorModel {
     Gravity(GravityModel),
     Field(FieldModel),
 }
 
 /// A vehicle's state of one modelled sensor: the gravity low-pass, the field's last disturbance.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SensorState {
     pub lowpass: LowpassState,
     pub last_disturbed_t_s: Option<f64>,

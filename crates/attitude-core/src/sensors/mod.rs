@@ -15,14 +15,14 @@ pub use vector::{MagnetometerModel, StarCamera, SunSensor};
 use nalgebra::Vector3;
 
 /// One gyro sample: the measured body rate `ω̃` valid from `t_s` until the next sample (zero-order hold).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GyroSample {
     pub t_s: f64,
     pub omega_body_rad_s: Vector3<f64>,
 }
 
 /// One vector observation `b̃ = A(q) r + v`, `v ~ N(0, σ² I₃)`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct VectorObservation {
     /// Measured in the body frame.
     pub body: Vector3<f64>,
@@ -33,12 +33,11 @@ pub struct VectorObservation {
     /// Optional sensor name, for per-sensor settings and statistics.
     pub sensor: Option<String>,
     /// Which part of the attitude the observation informs (see [`Aspect`]).
-    #[serde(default)]
     pub aspect: Aspect,
 }
 
 /// Which part of the attitude a vector observation informs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Aspect {
     /// The whole direction: `b̃ = A(q) r + v`, `v ~ N(0, σ² I₃)`.
     #[default]
@@ -66,7 +65,7 @@ impl Aspect {
 }
 
 /// The vector observations taken at one instant.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ObservationSet {
     pub t_s: f64,
     pub observations: Vec<VectorObservation>,
@@ -75,7 +74,7 @@ pub struct ObservationSet {
 /// One raw IMU sample: the body-frame rate over `(t_prev, t]` (rad/s), the specific force (m/s²) and,
 /// optionally, the magnetic field (any unit). A vehicle turns it into filter inputs with
 /// [`crate::ahrs`].
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImuSample {
     pub t_s: f64,
     pub gyr_rad_s: Vector3<f64>,
@@ -85,7 +84,7 @@ pub struct ImuSample {
 
 /// A time-stamped input of a vehicle. A filter takes `Gyro` and `Vectors`; an `Imu` sample reaches it
 /// through the sensor models of [`crate::ahrs`].
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Measurement {
     Gyro(GyroSample),
     Vectors(ObservationSet),

@@ -7,9 +7,9 @@
 use std::fmt;
 use std::sync::Arc;
 
+use crate::rng::Xoshiro256PlusPlus;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::gyro::normal3;
 use super::{Aspect, VectorObservation};

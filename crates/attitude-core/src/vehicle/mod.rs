@@ -1,6 +1,6 @@
 //! One vehicle: the reorder window, the time checks, the innovation gate, the filter's health and the
-//! ways back (re-initialisation). A closed state machine without I/O or locks, serialisable whole (a
-//! checkpoint is this struct).
+//! ways back (re-initialisation). A closed state machine without I/O or locks; its whole state can be
+//! taken out and put back as plain data ([`VehicleSnapshot`], what a checkpoint saves).
 //!
 //! An input first passes the time checks (duplicate, older than processed, jump) and is refused with
 //! a [`Rejection`] that changes nothing, or is accepted into the reorder window. Samples leave the
@@ -13,7 +13,7 @@ use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
     build_filter, is_spd, AttitudeFilter, Estimate, FilterError, FilterKind, FilterSpec,
-    InitialState, SavedFilter, SavedFilterRef, SAME_INSTANT_S,
+    InitialState, SAME_INSTANT_S,
 };
 use crate::rejection::{RejectCode, Rejection};
 use crate::rng::{fnv1a as fnv, FNV_OFFSET};
@@ -23,7 +23,6 @@ use crate::sensors::{
 };
 use nalgebra::{Matrix3, Vector3};
 use policy::{InitMode, Policy, VehicleFilterConfig};
-use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
 
 mod gate;
@@ -31,9 +30,11 @@ mod output;
 pub mod policy;
 mod reset;
 mod start;
+mod state;
 
 pub use output::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};
 pub use reset::{ResetRequest, TakeoverSeed};
+pub use state::{HeldSample, VehicleSnapshot};
 
 /// Attitude 1σ used by a reset that gives `q` without `sigma_deg`.
 pub const DEFAULT_RESET_SIGMA_DEG: f64 = 1.0;
@@ -55,14 +56,14 @@ const GATE_MAX_PRIOR_SIGMA_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
 pub const JUMP_CONFIRMATIONS: u32 = 3;
 
 /// The input streams of a vehicle (they arrive on different keys and may be reordered).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stream {
     Gyro = 0,
     Vectors = 1,
     Imu = 2,
 }
 
-const STREAMS: usize = 3;
+pub const STREAMS: usize = 3;
 
 pub fn stream_of(m: &Measurement) -> Stream {
     match m {
@@ -88,40 +89,20 @@ enum Slot {
     Tracking(Box<dyn AttitudeFilter>),
 }
 
-// A checkpoint holds the filter itself: written borrowed, read back owned.
-impl Serialize for Slot {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let saved: Option<SavedFilterRef<'_>> = match self {
-            Slot::Initializing => None,
-            Slot::Tracking(f) => Some(f.saved()),
-        };
-        saved.serialize(s)
-    }
-}
-
-impl<'de> Deserialize<'de> for Slot {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        Ok(match Option::<SavedFilter>::deserialize(d)? {
-            None => Slot::Initializing,
-            Some(f) => Slot::Tracking(f.into_filter()),
-        })
-    }
-}
-
 /// A sample in the reorder window.
-#[derive(Serialize, Deserialize)]
 struct Held {
     t_s: f64,
-    /// Wall time it was accepted, s on the engine's clock (0 after a restore: released at once).
+    /// Wall time it was accepted, s on the engine's clock (−∞ after a restore: released at the next
+    /// flush).
     held_at_s: f64,
     m: Measurement,
 }
 
 /// Samples beyond a time jump, waiting for confirmation.
-#[derive(Clone, Copy, Serialize, Deserialize)]
-struct JumpCandidate {
-    t_s: f64,
-    count: u32,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JumpCandidate {
+    pub t_s: f64,
+    pub count: u32,
 }
 
 /// A vehicle's gate, re-initialisation and rollback counts.
@@ -133,7 +114,6 @@ pub struct Totals {
 }
 
 /// A vehicle's complete state.
-#[derive(Serialize, Deserialize)]
 pub struct VehicleState {
     id: String,
     config: VehicleFilterConfig,
@@ -299,13 +279,6 @@ impl VehicleState {
             gated: self.gate.values().map(|c| c.gated).sum(),
             reinits: self.reinits.values().sum(),
             rollbacks: self.rollbacks,
-        }
-    }
-
-    /// After a restore: samples held before the restart are released at the next flush.
-    pub fn restart_clock(&mut self) {
-        for h in &mut self.held {
-            h.held_at_s = f64::NEG_INFINITY;
         }
     }
 

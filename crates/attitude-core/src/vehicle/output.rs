@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
 /// One sensor's gate counts.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GateCounts {
     pub accepted: u64,
     pub gated: u64,

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
 /// How a vehicle's filter starts when no attitude is given.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InitMode {
     /// From the first vector-observation set with two or more non-parallel vectors (q-method).
     Vectors,
@@ -17,7 +17,7 @@ pub enum InitMode {
 }
 
 /// Everything needed to create one vehicle's filter.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct VehicleFilterConfig {
     pub filter: FilterConfig,
     pub init: InitMode,

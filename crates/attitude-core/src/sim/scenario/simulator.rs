@@ -7,10 +7,10 @@
 //! `(params, seed)` gives a bit-identical [`SimulatedRun`], and enabling one sensor does not change the
 //! noise drawn for another.
 
+use crate::rng::Xoshiro256PlusPlus;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::{BiasSpec, InitialError, ScenarioError, ScenarioParams};
 use crate::attitude::Quaternion;

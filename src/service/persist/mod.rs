@@ -3,12 +3,16 @@
 //! rename, fsync of the directory), so a crash leaves either the previous or the new checkpoint.
 //!
 //! File layout: the magic `ATTCKPT\0`, the format version (u32 LE), the payload length (u64 LE), the
-//! payload's CRC-32 (u32 LE), then the payload (bincode). A file that is short, has another magic or
-//! version, or fails its CRC is reported and skipped.
+//! payload's CRC-32 (u32 LE), then the payload ([`format`]: checkpoint structs of their own, converted
+//! from and to the core's plain-data states). A file that is short, has another magic or version,
+//! fails its CRC or holds a state the core refuses is reported (an error log line naming the file and
+//! the reason) and skipped (`checkpoints.skipped`): its vehicle starts afresh.
+
+mod format;
 
 use super::vehicle::VehicleState;
 use bincode::Options;
-use serde::{Deserialize, Serialize};
+use format::{CheckpointV4, Saved};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -18,12 +22,14 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// 2: a vehicle holds its sensor models' state (`sensors::imu::SensorState`).
 /// 3: observations have an `aspect`; a vehicle holds its raw-IMU pipeline (`crate::ahrs::Ahrs`), its
 /// gyro feed and a third stream; filters their gyro error model (`filters::GyroErrors`).
-const VERSION: u32 = 3;
+/// 4: the payload is [`format`]'s own structs, no longer the in-memory object graph (1–3 were bincode
+/// of the core types themselves, which cannot be read without them: refused).
+pub const VERSION: u32 = 4;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 
 /// A vehicle's counters as `P/@/vehicles` reports them.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SavedCounters {
     pub received: u64,
     pub processed: u64,
@@ -31,14 +37,7 @@ pub struct SavedCounters {
     pub rejected_by_code: BTreeMap<String, u64>,
 }
 
-#[derive(Serialize)]
-struct CheckpointRef<'a> {
-    state: &'a VehicleState,
-    counters: &'a SavedCounters,
-}
-
 /// A checkpoint read back.
-#[derive(Deserialize)]
 pub struct Checkpoint {
     pub state: VehicleState,
     pub counters: SavedCounters,
@@ -61,7 +60,10 @@ pub fn path_of(dir: &Path, vehicle: &str) -> PathBuf {
 pub fn encode(state: &VehicleState, counters: &SavedCounters) -> Result<Vec<u8>, String> {
     let payload = bincode::DefaultOptions::new()
         .with_fixint_encoding()
-        .serialize(&CheckpointRef { state, counters })
+        .serialize(&CheckpointV4 {
+            vehicle: state.snapshot().save(),
+            counters: counters.save(),
+        })
         .map_err(|e| e.to_string())?;
     let mut out = Vec::with_capacity(HEADER + payload.len());
     out.extend_from_slice(MAGIC);
@@ -82,6 +84,12 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     }
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let version = u32_at(8);
+    if version < VERSION {
+        return Err(format!(
+            "format version {version}, written by an earlier build: this build reads format \
+             {VERSION} only, the vehicle starts afresh (its next checkpoint replaces this file)"
+        ));
+    }
     if version != VERSION {
         return Err(format!(
             "format version {version}, this service reads {VERSION}"
@@ -99,13 +107,16 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         return Err("CRC mismatch".into());
     }
     // The limit keeps a damaged length field from asking for more memory than the file holds.
-    let mut c: Checkpoint = bincode::DefaultOptions::new()
+    let c: CheckpointV4 = bincode::DefaultOptions::new()
         .with_fixint_encoding()
         .with_limit(len as u64)
         .deserialize(payload)
         .map_err(|e| e.to_string())?;
-    c.state.restart_clock();
-    Ok(c)
+    let snapshot = crate::service::vehicle::VehicleSnapshot::load(c.vehicle)?;
+    Ok(Checkpoint {
+        state: VehicleState::restore(snapshot)?,
+        counters: SavedCounters::load(c.counters)?,
+    })
 }
 
 /// Writes `bytes` as `vehicle`'s checkpoint, atomically.
