@@ -179,13 +179,20 @@ def test_a_corrupt_checkpoint_is_reported_and_skipped():
     good = (d / "r-mekf.ckpt").read_bytes()
     (d / "r-mekf.ckpt").write_bytes(good[: len(good) // 2])  # a partial write
     (d / "junk.ckpt").write_bytes(b"\x00" * 100)
+    # A checkpoint of the previous format (format 3, the golden file kept in the repository).
+    old = pathlib.Path(__file__).parents[1] / "data" / "checkpoints" / "v3-qpf-imu.ckpt"
+    (d / "golden-qpf-imu.ckpt").write_bytes(old.read_bytes())
     b, bc = start(state_dir)
     try:
         h = bc.health()
-        assert h["checkpoints"]["skipped"] == 2, h
+        assert h["checkpoints"]["skipped"] == 3, h
         assert h["checkpoints"]["restored"] == len(VEHICLES) - 1, h
         assert {r["vehicle"] for r in bc.vehicles()} == set(VEHICLES) - {"r-mekf"}
         assert bc.get_state("r-qpf")["t"] == 5.0
     finally:
         assert stop(b, bc) == 0
-    assert "checkpoint skipped" in b.log(), b.log()[-2000:]
+    log = b.log()
+    assert "checkpoint skipped" in log, log[-2000:]
+    assert "golden-qpf-imu.ckpt: not a checkpoint (format version 3, written by an earlier build" in log, (
+        log[-3000:]
+    )
