@@ -37,7 +37,7 @@ mod tests {
         );
         let e = nested.unwrap_err();
         assert_eq!(e.code, RejectCode::BadRequest);
-        assert!(e.message.contains("\"ref\" appears twice"), "{}", e.message);
+        assert!(e.message.contains("duplicate field `ref`"), "{}", e.message);
         // Not JSON at all is still invalid_json.
         let broken = decode_batch::<GyroMsg>(br#"{"t": 1.0,"#, &lim());
         assert_eq!(broken.unwrap_err().code, RejectCode::InvalidJson);
