@@ -7,7 +7,7 @@ use attitude_service::attitude::{weighted_average, Quaternion};
 use attitude_service::rng::ziggurat;
 use attitude_service::rng::Xoshiro256PlusPlus;
 use attitude_service::tools::bench::SteadyState;
-use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, VectorsMsg};
+use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, ImuMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
@@ -63,6 +63,24 @@ fn wire(c: &mut Criterion) {
     });
     c.bench_function("parse vectors (3 obs)", |b| {
         b.iter(|| decode_batch::<VectorsMsg>(black_box(vectors), &limits).unwrap())
+    });
+    // The P/V/imu load: one sample per put, and a batch of 100 (per batch; divide for per sample).
+    let imu = br#"{"t": 12.5, "gyr": [0.001, -0.002, 0.0005], "acc": [0.12, -0.05, 9.81], "mag": [0.2, 15.6, -41.7]}"#;
+    let imu_batch = format!(
+        "[{}]",
+        (0..100)
+            .map(|i| format!(
+                r#"{{"t": {}, "gyr": [0.001, -0.002, 0.0005], "acc": [0.12, -0.05, 9.81], "mag": [0.2, 15.6, -41.7]}}"#,
+                12.5 + 0.01 * i as f64
+            ))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    c.bench_function("parse imu", |b| {
+        b.iter(|| decode_batch::<ImuMsg>(black_box(imu), &limits).unwrap())
+    });
+    c.bench_function("parse imu batch (100)", |b| {
+        b.iter(|| decode_batch::<ImuMsg>(black_box(imu_batch.as_bytes()), &limits).unwrap())
     });
     let mut bench = SteadyState::new("qpf:average", 300).unwrap();
     bench.step().unwrap();

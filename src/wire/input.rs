@@ -4,7 +4,14 @@
 use super::{RejectCode, Rejection};
 use crate::sensors::{Aspect, GyroSample, ImuSample, ObservationSet, VectorObservation};
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
+use serde::de::value::MapAccessDeserializer;
+use serde::de::{
+    self, DeserializeOwned, DeserializeSeed, IgnoredAny, MapAccess, SeqAccess, Visitor,
+};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::cell::Cell;
+use std::fmt;
+use std::marker::PhantomData;
 
 /// Longest sensor name accepted.
 pub const MAX_SENSOR_NAME: usize = 64;
@@ -15,7 +22,9 @@ pub const MIN_VECTOR_NORM: f64 = 1e-9;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GyroMsg {
+    #[serde(deserialize_with = "number")]
     pub t: f64,
+    #[serde(deserialize_with = "vec3")]
     pub omega: [f64; 3],
 }
 
@@ -23,11 +32,14 @@ pub struct GyroMsg {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObservationMsg {
+    #[serde(deserialize_with = "vec3")]
     pub body: [f64; 3],
-    #[serde(rename = "ref")]
+    #[serde(rename = "ref", deserialize_with = "vec3")]
     pub reference: [f64; 3],
+    #[serde(deserialize_with = "number")]
     pub sigma: f64,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor: Option<String>,
 }
 
@@ -35,7 +47,9 @@ pub struct ObservationMsg {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VectorsMsg {
+    #[serde(deserialize_with = "number")]
     pub t: f64,
+    #[serde(deserialize_with = "objects")]
     pub obs: Vec<ObservationMsg>,
 }
 
@@ -44,10 +58,14 @@ pub struct VectorsMsg {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImuMsg {
+    #[serde(deserialize_with = "number")]
     pub t: f64,
+    #[serde(deserialize_with = "vec3")]
     pub gyr: [f64; 3],
+    #[serde(deserialize_with = "vec3")]
     pub acc: [f64; 3],
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some_vec3")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub mag: Option<[f64; 3]>,
 }
 
@@ -254,8 +272,15 @@ impl VectorsMsg {
     }
 }
 
-/// Checks size and UTF-8 and parses JSON: the first steps of every payload.
-fn decode_value(payload: &[u8], limits: &InputLimits) -> Result<serde_json::Value, Rejection> {
+// Decoding: serde reads the text straight into the message structs, in one pass. The contract's rules
+// live in the messages' `Deserialize` (`deny_unknown_fields`; serde's derive refuses a field given
+// twice) and in the field readers below; `refused` turns serde's error into the contract's code.
+
+/// The message of a `null` where a number belongs, which `shape_code` recognises.
+const NULL_NUMBER: &str = "a number is null (how many encoders write NaN)";
+
+/// Checks size and UTF-8: the first steps of every payload.
+fn text_of<'a>(payload: &'a [u8], limits: &InputLimits) -> Result<&'a str, Rejection> {
     if payload.len() > limits.max_payload_bytes {
         return Err(Rejection::new(
             RejectCode::PayloadTooLarge,
@@ -266,207 +291,292 @@ fn decode_value(payload: &[u8], limits: &InputLimits) -> Result<serde_json::Valu
             ),
         ));
     }
-    let text = std::str::from_utf8(payload).map_err(|e| {
+    std::str::from_utf8(payload).map_err(|e| {
         Rejection::new(
             RejectCode::InvalidUtf8,
             format!("payload is not UTF-8: {e}"),
         )
-    })?;
-    match serde_json::from_str::<Strict>(text) {
-        Ok(Strict(v)) => Ok(v),
-        // (A duplicate key is well-formed JSON the contract refuses: a shape error.)
-        Err(e) if e.is_data() => Err(Rejection::new(RejectCode::BadRequest, e.to_string())),
-        Err(e) => Err(Rejection::new(
-            RejectCode::InvalidJson,
-            format!("payload is not JSON: {e}"),
-        )),
-    }
+    })
 }
 
-/// A JSON value parsed with every object's keys unique: JSON allows a key twice and
-/// `serde_json::Value` would keep the last; the contract refuses it (`bad_request`).
-struct Strict(serde_json::Value);
-
-impl<'de> serde::Deserialize<'de> for Strict {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        use serde::de::{Error, MapAccess, SeqAccess, Visitor};
-        use serde_json::Value;
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Strict;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a JSON value")
-            }
-            fn visit_bool<E: Error>(self, b: bool) -> Result<Strict, E> {
-                Ok(Strict(Value::Bool(b)))
-            }
-            fn visit_i64<E: Error>(self, n: i64) -> Result<Strict, E> {
-                Ok(Strict(Value::from(n)))
-            }
-            fn visit_u64<E: Error>(self, n: u64) -> Result<Strict, E> {
-                Ok(Strict(Value::from(n)))
-            }
-            fn visit_f64<E: Error>(self, n: f64) -> Result<Strict, E> {
-                Ok(Strict(Value::from(n)))
-            }
-            fn visit_str<E: Error>(self, s: &str) -> Result<Strict, E> {
-                Ok(Strict(Value::String(s.to_string())))
-            }
-            fn visit_string<E: Error>(self, s: String) -> Result<Strict, E> {
-                Ok(Strict(Value::String(s)))
-            }
-            fn visit_unit<E: Error>(self) -> Result<Strict, E> {
-                Ok(Strict(Value::Null))
-            }
-            fn visit_none<E: Error>(self) -> Result<Strict, E> {
-                Ok(Strict(Value::Null))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Strict, A::Error> {
-                let mut items = Vec::new();
-                while let Some(Strict(v)) = seq.next_element()? {
-                    items.push(v);
-                }
-                Ok(Strict(Value::Array(items)))
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Strict, A::Error> {
-                let mut m = serde_json::Map::new();
-                while let Some(k) = map.next_key::<String>()? {
-                    let Strict(v) = map.next_value()?;
-                    if m.insert(k.clone(), v).is_some() {
-                        return Err(A::Error::custom(format!(
-                            "the key \"{k}\" appears twice in one object"
-                        )));
-                    }
-                }
-                Ok(Strict(Value::Object(m)))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// A JSON value of the wrong shape; serde_json writes NaN as null, so a null number is `non_finite`.
-fn shape_error(e: serde_json::Error, at: Option<usize>) -> Rejection {
-    let place = at.map(|i| format!("batch item {i}: ")).unwrap_or_default();
-    let message = e.to_string();
-    // `null` where a number belongs is how many encoders write NaN.
-    let code = if message.starts_with("invalid type: null, expected f64") {
-        RejectCode::NonFinite
-    } else {
-        RejectCode::BadRequest
-    };
-    Rejection::new(code, format!("{place}{message}"))
-}
-
-/// Decodes a payload that holds exactly one item (a request).
-pub fn decode_one<T: serde::de::DeserializeOwned>(
+/// Decodes a payload that holds exactly one item (a request), a JSON object.
+pub fn decode_one<T: DeserializeOwned>(
     payload: &[u8],
     limits: &InputLimits,
 ) -> Result<T, Rejection> {
-    let v = decode_value(payload, limits)?;
-    objects_only(&v, None)?;
-    serde_json::from_value(v).map_err(|e| shape_error(e, None))
-}
-
-/// `null` is refused wherever it stands, also in optional fields (the schemas say so): where a number
-/// belongs it is `non_finite` (how many encoders write NaN), elsewhere `bad_request`.
-fn no_nulls(
-    map: &serde_json::Map<String, serde_json::Value>,
-    index: Option<usize>,
-) -> Result<(), Rejection> {
-    use serde_json::Value;
-    let place = index
-        .map(|i| format!("batch item {i}: "))
-        .unwrap_or_default();
-    for (k, v) in map {
-        // A number field that is null is a NaN; a string, record or array that is null is a shape
-        // error; a null inside a numeric array is a NaN again.
-        let whole = match k.as_str() {
-            "t" | "sigma" | "particles" | "w" | "x" | "y" | "z" => RejectCode::NonFinite,
-            _ => RejectCode::BadRequest,
-        };
-        let null = |code, what: String| Err(Rejection::new(code, format!("{place}{what} is null")));
-        match v {
-            Value::Null => return null(whole, k.clone()),
-            Value::Array(items) => {
-                for (i, item) in items.iter().enumerate() {
-                    match item {
-                        Value::Null if k == "obs" => {
-                            return null(RejectCode::BadRequest, format!("{k}[{i}]"))
-                        }
-                        Value::Null => return null(RejectCode::NonFinite, format!("{k}[{i}]")),
-                        Value::Object(m) => no_nulls(m, index)?,
-                        _ => {}
-                    }
-                }
-            }
-            Value::Object(m) => no_nulls(m, index)?,
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
-/// Every message and nested record (`obs[]`, `q`) is a JSON object. (serde's derived structs would
-/// also take an array of the fields in order, which the contract does not allow.)
-fn objects_only(v: &serde_json::Value, index: Option<usize>) -> Result<(), Rejection> {
-    let at = |what: &str| match index {
-        Some(i) => format!("batch item {i}: {what} must be a JSON object"),
-        None => format!("{what} must be a JSON object"),
-    };
-    let Some(map) = v.as_object() else {
-        return Err(Rejection::new(RejectCode::BadRequest, at("the message")));
-    };
-    no_nulls(map, index)?;
-    if let Some(serde_json::Value::Array(obs)) = map.get("obs") {
-        if let Some(k) = obs.iter().position(|o| !o.is_object()) {
-            return Err(Rejection::new(
-                RejectCode::BadRequest,
-                at(&format!("obs[{k}]")),
-            ));
-        }
-    }
-    if map.get("q").is_some_and(|q| q.is_array()) {
-        return Err(Rejection::new(RejectCode::BadRequest, at("q")));
-    }
-    Ok(())
+    let text = text_of(payload, limits)?;
+    let mut de = serde_json::Deserializer::from_str(text);
+    T::deserialize(ObjectOnly(&mut de))
+        .and_then(|item| de.end().map(|()| item))
+        .map_err(|e| refused(e, text, None, None))
 }
 
 /// Decodes a payload that holds one item or a JSON array of them (a batch), checking size and UTF-8
 /// first. Every item must be valid; the first invalid one names the batch index.
-pub fn decode_batch<T: serde::de::DeserializeOwned>(
+pub fn decode_batch<T: DeserializeOwned>(
     payload: &[u8],
     limits: &InputLimits,
 ) -> Result<Vec<T>, Rejection> {
-    match decode_value(payload, limits)? {
-        serde_json::Value::Array(items) => {
-            if items.is_empty() {
-                return Err(Rejection::new(RejectCode::BadRequest, "empty batch"));
-            }
-            if items.len() > limits.max_batch {
-                return Err(Rejection::new(
-                    RejectCode::BatchTooLarge,
-                    format!(
-                        "batch of {} items exceeds {}",
-                        items.len(),
-                        limits.max_batch
-                    ),
-                ));
-            }
-            items
-                .into_iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    objects_only(&v, Some(i))?;
-                    serde_json::from_value(v).map_err(|e| shape_error(e, Some(i)))
-                })
-                .collect()
+    let text = text_of(payload, limits)?;
+    let item = Cell::new(None);
+    let mut de = serde_json::Deserializer::from_str(text);
+    let one_or_many = OneOrMany {
+        max_batch: limits.max_batch,
+        item: &item,
+        of: PhantomData,
+    };
+    de.deserialize_any(one_or_many)
+        .and_then(|items| de.end().map(|()| items))
+        .map_err(|e| refused(e, text, Some(limits.max_batch), item.get()))
+}
+
+/// The rejection of a payload serde refused. serde stops at the first fault in the text, but the
+/// contract ranks faults: text that is not JSON (anywhere) before a batch over `max_batch` before a
+/// value of the wrong shape. So a shape fault has the text read once more (only then; an accepted
+/// payload is read once) for a syntax error further on and for the batch's length.
+fn refused(
+    e: serde_json::Error,
+    text: &str,
+    max_batch: Option<usize>,
+    item: Option<usize>,
+) -> Rejection {
+    let not_json = |e| Rejection::new(RejectCode::InvalidJson, format!("payload is not JSON: {e}"));
+    if !e.is_data() {
+        return not_json(e);
+    }
+    match (serde_json::from_str::<Checked>(text), max_batch) {
+        (Err(syntax), _) => not_json(syntax),
+        (Ok(Checked(Some(n))), Some(max)) if n > max => Rejection::new(
+            RejectCode::BatchTooLarge,
+            format!("batch of {n} items exceeds {max}"),
+        ),
+        (Ok(_), _) => {
+            let place = item
+                .map(|i| format!("batch item {i}: "))
+                .unwrap_or_default();
+            Rejection::new(shape_code(&e), format!("{place}{e}"))
         }
-        v => {
-            objects_only(&v, None)?;
-            Ok(vec![
-                serde_json::from_value(v).map_err(|e| shape_error(e, None))?
-            ])
+    }
+}
+
+/// `null` where a number belongs is `non_finite` (how many encoders write NaN); every other shape
+/// fault is `bad_request`. serde_json's errors carry a category but no kind, so this reads the
+/// message: only our own, [`NULL_NUMBER`], which serde_json puts first (its position follows).
+fn shape_code(e: &serde_json::Error) -> RejectCode {
+    if e.to_string().starts_with(NULL_NUMBER) {
+        RejectCode::NonFinite
+    } else {
+        RejectCode::BadRequest
+    }
+}
+
+/// One JSON value, parsed as `serde_json::Value` would be (numbers, escapes, nesting depth; unlike
+/// `IgnoredAny`, which skips them unchecked) and dropped; an array keeps its length.
+struct Checked(Option<usize>);
+
+impl<'de> Deserialize<'de> for Checked {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(Checking)
+    }
+}
+
+struct Checking;
+
+impl<'de> Visitor<'de> for Checking {
+    type Value = Checked;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Checked, A::Error> {
+        let mut n = 0;
+        while seq.next_element::<Checked>()?.is_some() {
+            n += 1;
         }
+        Ok(Checked(Some(n)))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Checked, A::Error> {
+        while map.next_entry::<Checked, Checked>()?.is_some() {}
+        Ok(Checked(None))
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+    fn visit_unit<E>(self) -> Result<Checked, E> {
+        Ok(Checked(None))
+    }
+}
+
+/// The top level of a `decode_batch` payload: one message (an object) or a non-empty array of at most
+/// `max_batch` of them. `item` tells `refused` which item failed.
+struct OneOrMany<'a, T> {
+    max_batch: usize,
+    item: &'a Cell<Option<usize>>,
+    of: PhantomData<T>,
+}
+
+impl<'de, T: Deserialize<'de>> Visitor<'de> for OneOrMany<'_, T> {
+    type Value = Vec<T>;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON object or an array of them")
+    }
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Vec<T>, A::Error> {
+        T::deserialize(MapAccessDeserializer::new(map)).map(|m| vec![m])
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+        let mut items = Vec::new();
+        loop {
+            self.item.set(Some(items.len()));
+            if items.len() == self.max_batch {
+                // One more is one too many, whatever it holds (`refused` counts them all).
+                if seq.next_element::<IgnoredAny>()?.is_some() {
+                    return Err(de::Error::custom("batch too large"));
+                }
+                break;
+            }
+            match seq.next_element_seed(Object(PhantomData))? {
+                Some(m) => items.push(m),
+                None => break,
+            }
+        }
+        self.item.set(None);
+        if items.is_empty() {
+            return Err(de::Error::custom("empty batch"));
+        }
+        Ok(items)
+    }
+}
+
+/// A message or record (`obs[]`, `q`) read from a JSON object only: serde's derived structs would also
+/// take an array of the field values, which the contract refuses.
+struct Object<T>(PhantomData<T>);
+
+impl<'de, T: Deserialize<'de>> DeserializeSeed<'de> for Object<T> {
+    type Value = T;
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<T, D::Error> {
+        T::deserialize(ObjectOnly(d))
+    }
+}
+
+/// A deserializer that reads a map whatever it is asked for (a derived struct asks for a struct).
+struct ObjectOnly<D>(D);
+
+impl<'de, D: Deserializer<'de>> Deserializer<'de> for ObjectOnly<D> {
+    type Error = D::Error;
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, D::Error> {
+        self.0.deserialize_map(visitor)
+    }
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf option
+        unit unit_struct newtype_struct seq tuple tuple_struct map struct enum identifier ignored_any
+    }
+}
+
+// Field readers (`deserialize_with`). `null` is refused everywhere, also in optional fields: where a
+// number belongs with `NULL_NUMBER`, elsewhere by the type's own error.
+
+/// A number (`f64`, or `usize` for a count); `null` is `NULL_NUMBER`.
+pub(super) fn number<'de, D: Deserializer<'de>, T: Deserialize<'de>>(d: D) -> Result<T, D::Error> {
+    Option::<T>::deserialize(d)?.ok_or_else(|| de::Error::custom(NULL_NUMBER))
+}
+
+/// An optional number: present means a number.
+pub(super) fn some_number<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    number(d).map(Some)
+}
+
+/// An optional field of another type: present means not `null`.
+pub(super) fn some<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    T::deserialize(d).map(Some)
+}
+
+/// An optional record, a JSON object.
+pub(super) fn some_object<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    Object(PhantomData).deserialize(d).map(Some)
+}
+
+/// An array of records, each a JSON object.
+pub(super) fn objects<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Vec<T>, D::Error> {
+    struct Records<T>(PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for Records<T> {
+        type Value = Vec<T>;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("an array of JSON objects")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+            let mut items = Vec::new();
+            while let Some(m) = seq.next_element_seed(Object(PhantomData))? {
+                items.push(m);
+            }
+            Ok(items)
+        }
+    }
+    d.deserialize_seq(Records(PhantomData))
+}
+
+/// Three numbers, `[x, y, z]`.
+pub(super) fn vec3<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    d.deserialize_tuple(3, Three)
+}
+
+/// An optional `[x, y, z]`.
+pub(super) fn some_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
+    vec3(d).map(Some)
+}
+
+/// The visitor of `[x, y, z]` (also of [`super::PerAxis`]'s array).
+pub(super) struct Three;
+
+impl<'de> Visitor<'de> for Three {
+    type Value = [f64; 3];
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("an array of 3 numbers")
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; 3], A::Error> {
+        let mut v = [0.0; 3];
+        for (i, x) in v.iter_mut().enumerate() {
+            *x = seq
+                .next_element::<Number>()?
+                .ok_or_else(|| de::Error::invalid_length(i, &self))?
+                .0;
+        }
+        // serde_json takes a fourth element for a syntax error (it expects the array's end): count
+        // them, a wrong length.
+        let mut n = 3;
+        while seq.next_element::<IgnoredAny>()?.is_some() {
+            n += 1;
+        }
+        if n > 3 {
+            return Err(de::Error::invalid_length(n, &self));
+        }
+        Ok(v)
+    }
+}
+
+/// An element of `[x, y, z]`.
+struct Number(f64);
+
+impl<'de> Deserialize<'de> for Number {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        number(d).map(Number)
     }
 }

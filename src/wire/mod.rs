@@ -37,10 +37,73 @@ mod tests {
         );
         let e = nested.unwrap_err();
         assert_eq!(e.code, RejectCode::BadRequest);
-        assert!(e.message.contains("\"ref\" appears twice"), "{}", e.message);
+        assert!(e.message.contains("duplicate field `ref`"), "{}", e.message);
         // Not JSON at all is still invalid_json.
         let broken = decode_batch::<GyroMsg>(br#"{"t": 1.0,"#, &lim());
         assert_eq!(broken.unwrap_err().code, RejectCode::InvalidJson);
+    }
+
+    /// serde stops at the first fault; the codes still rank text that is not JSON first, then a batch
+    /// over the limit, then the shape.
+    #[test]
+    fn faults_rank_as_the_contract_says() {
+        let gyro = |p: &str, l: &InputLimits| decode_batch::<GyroMsg>(p.as_bytes(), l).unwrap_err();
+        let deep = format!("{}{}", "[".repeat(200), "]".repeat(200));
+        for p in [
+            deep.as_str(),
+            r#"{"t": "x", "omega": [0, 0, NaN]}"#,
+            r#"{"t": 1, "omega": [0, 0, 0, 1e999]}"#,
+        ] {
+            assert_eq!(gyro(p, &lim()).code, RejectCode::InvalidJson, "{p}");
+        }
+        let r = gyro(r#"{"t": 1, "omega": [0, 0, 0, 0]}"#, &lim());
+        assert_eq!(r.code, RejectCode::BadRequest);
+        let few = InputLimits {
+            max_batch: 2,
+            ..lim()
+        };
+        let r = gyro(r#"[{"t": null}, {"t": 1}, {"t": 2}]"#, &few);
+        assert_eq!(r.code, RejectCode::BatchTooLarge, "{}", r.message);
+        let r = gyro(
+            r#"[{"t": 1, "omega": [0, 0, 0]}, {"t": 2, "omega": [0, null, 0]}]"#,
+            &few,
+        );
+        assert_eq!(r.code, RejectCode::NonFinite);
+        assert!(r.message.starts_with("batch item 1: "), "{}", r.message);
+        let imu = |p: &str| {
+            decode_batch::<ImuMsg>(p.as_bytes(), &lim())
+                .unwrap_err()
+                .code
+        };
+        let base = r#""t": 1, "gyr": [0, 0, 0], "acc": [0, 0, 9.8]"#;
+        assert_eq!(
+            imu(&format!("{{{base}, \"mag\": null}}")),
+            RejectCode::BadRequest
+        );
+        assert_eq!(
+            imu(&format!("{{{base}, \"mag\": [0, null, 0]}}")),
+            RejectCode::NonFinite
+        );
+        let reset = |p: &str| {
+            decode_one::<ResetMsg>(p.as_bytes(), &lim())
+                .unwrap_err()
+                .code
+        };
+        for (p, code) in [
+            (r#"{"particles": null}"#, RejectCode::NonFinite),
+            (r#"{"t": null}"#, RejectCode::NonFinite),
+            (r#"{"filter": null}"#, RejectCode::BadRequest),
+            (r#"{"q": [1, 0, 0, 0]}"#, RejectCode::BadRequest),
+            (
+                r#"{"q": {"w": 1, "x": 0, "y": 0, "z": null}}"#,
+                RejectCode::NonFinite,
+            ),
+            (r#"{"sigma_deg": null}"#, RejectCode::BadRequest),
+            (r#"{"sigma_deg": [1, null, 1]}"#, RejectCode::NonFinite),
+            (r#"[{}]"#, RejectCode::BadRequest),
+        ] {
+            assert_eq!(reset(p), code, "{p}");
+        }
     }
 
     #[test]

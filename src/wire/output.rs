@@ -1,6 +1,7 @@
 //! The outputs: `P/V/estimate` (also the `P/V/state` reply), the attitude and covariance replies,
 //! error replies.
 
+use super::input::number;
 use super::{RejectCode, Rejection};
 use crate::attitude::Quaternion;
 use crate::filters::{Estimate, FilterSpec};
@@ -12,9 +13,13 @@ use std::collections::BTreeMap;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QuaternionMsg {
+    #[serde(deserialize_with = "number")]
     pub w: f64,
+    #[serde(deserialize_with = "number")]
     pub x: f64,
+    #[serde(deserialize_with = "number")]
     pub y: f64,
+    #[serde(deserialize_with = "number")]
     pub z: f64,
 }
 

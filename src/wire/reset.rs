@@ -1,17 +1,47 @@
 //! `P/V/reset`: the request and its reply.
 
+use super::input::{some, some_number, some_object, some_vec3, Three};
 use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
 use crate::filters::{Fiducial, FilterKind, FilterSpec};
 use crate::service::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
 use nalgebra::{Matrix6, Vector3};
-use serde::{Deserialize, Serialize};
+use serde::de::{self, SeqAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fmt;
 
 /// A sigma given as one number for every axis or three.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum PerAxis {
     One(f64),
     Three([f64; 3]),
+}
+
+/// By hand rather than `untagged`, whose one error for every fault would make a `null` axis a
+/// `bad_request` instead of `non_finite`.
+impl<'de> Deserialize<'de> for PerAxis {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct OneOrThree;
+        impl<'de> Visitor<'de> for OneOrThree {
+            type Value = PerAxis;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of 3 numbers")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<PerAxis, E> {
+                Ok(PerAxis::One(v))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<PerAxis, E> {
+                Ok(PerAxis::One(v as f64))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<PerAxis, E> {
+                Ok(PerAxis::One(v as f64))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<PerAxis, A::Error> {
+                Three.visit_seq(seq).map(PerAxis::Three)
+            }
+        }
+        d.deserialize_any(OneOrThree)
+    }
 }
 
 impl PerAxis {
@@ -28,27 +58,35 @@ impl PerAxis {
 #[serde(deny_unknown_fields)]
 pub struct ResetMsg {
     /// `mekf`, `usque` or `qpf` (default: the vehicle's configured filter).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub filter: Option<String>,
     /// `propagated` or `average` (sampling filters).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub fiducial: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
     /// The attitude; absent means initialise from the next vector-observation set.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some_object")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub q: Option<QuaternionMsg>,
     /// Attitude 1σ, deg (one value or three).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sigma_deg: Option<PerAxis>,
     /// Gyro bias, rad/s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some_vec3")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub bias: Option<[f64; 3]>,
     /// Bias 1σ, rad/s (one value or three).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_sigma: Option<PerAxis>,
     /// Start time, s (default: the time of the next measurement).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub t: Option<f64>,
 }
 
