@@ -95,7 +95,8 @@ pub struct FleetHealthMsg {
 pub struct CheckpointHealthMsg {
     pub state_dir: String,
     pub interval_s: f64,
-    /// Vehicles restored at start, and checkpoint files skipped then (corrupt or unreadable).
+    /// Vehicles restored at start, and checkpoint files skipped then (corrupt, unreadable, of another
+    /// format version, or holding a state the core refuses).
     pub restored: u64,
     pub skipped: u64,
     /// Checkpoint files written and failed writes since start.

@@ -151,7 +151,7 @@ pub struct GateCountsMsg {
     pub accepted: u64,
     pub gated: u64,
     /// Observations of a `gravity` sensor left out because their norm deviated beyond `norm_gate`.
-    /// (Always written: a checkpoint holds these counts in bincode, which has no optional fields.)
+    /// (Always written, 0 when the sensor has no model: the schema lists every count.)
     #[serde(default)]
     pub norm_gated: u64,
     /// Observations of a `field` sensor left out as disturbed (norm or dip) or in the hold-off after a
