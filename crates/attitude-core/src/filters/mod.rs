@@ -216,6 +216,15 @@ impl GyroErrors {
         k * k * omega_rad_s.norm_squared() * dt_s
     }
 
+    /// `1/τ` of the Gauss–Markov bias, `τ = 2 σ_b²/σ_u²` (0 for a random walk): `φ = e^{−Δt/τ}`.
+    pub fn bias_reversion_rate(&self, gyro: &GyroNoise) -> f64 {
+        let sb = self.bias_limit_rad_s;
+        if !sb.is_finite() || gyro.sigma_u <= 0.0 {
+            return 0.0;
+        }
+        gyro.sigma_u * gyro.sigma_u / (2.0 * sb * sb)
+    }
+
     /// `φ = e^{−Δt/τ}` of the Gauss–Markov bias, `τ = 2 σ_b²/σ_u²` (1 for a random walk).
     pub fn bias_reversion(&self, gyro: &GyroNoise, dt_s: f64) -> f64 {
         let sb = self.bias_limit_rad_s;
@@ -736,6 +745,26 @@ pub fn symmetrize(p: &mut Matrix6<f64>) {
 /// True when `p` is finite, symmetric to rounding and positive definite (Cholesky succeeds).
 pub fn is_spd(p: &Matrix6<f64>) -> bool {
     p.iter().all(|x| x.is_finite()) && p.cholesky().is_some()
+}
+
+/// The necessary conditions of positive definiteness: finite, a positive diagonal, every correlation
+/// within ±1 (`Pᵢⱼ² ≤ Pᵢᵢ Pⱼⱼ`). They catch what a failed step leaves (a NaN, a variance driven
+/// negative) at a fraction of a Cholesky's cost, and are what release builds check where the steps
+/// themselves keep a covariance positive definite (the Kalman filters); debug builds and the core's
+/// tests run the full Cholesky ([`is_spd`]) as well.
+pub fn plausibly_spd(p: &Matrix6<f64>) -> bool {
+    let a = &p.data.0;
+    let mut ok = true;
+    for i in 0..6 {
+        ok &= a[i][i] > 0.0 && a[i][i] < f64::INFINITY;
+        for j in i + 1..6 {
+            ok &= a[i][j] * a[i][j] <= a[i][i] * a[j][j] && a[j][i] * a[j][i] <= a[i][i] * a[j][j];
+        }
+    }
+    if cfg!(any(debug_assertions, test)) {
+        ok &= is_spd(p);
+    }
+    ok
 }
 
 /// The check before a filter step commits (nothing is changed when it fails): the step's new values

@@ -1,0 +1,330 @@
+//! The MEKF's arithmetic on fixed-size arrays, shaped like its matrices.
+//!
+//! * **Propagation.** `Φ = [[A, B], [0, I]]` (`A = Φ₁₁`, `B = Φ₁₂`), so `P₂₂` is unchanged by `Φ`,
+//!   `P₁₂′ = A P₁₂ + B P₂₂ =: M` and `P₁₁′ = (A P₁₁ + B P₂₁) Aᵀ + M Bᵀ`: about 145 multiply-adds where
+//!   two dense 6×6 products take 432. The coefficients of `Φ` come from a series at an IMU's rates.
+//! * **Updates as scalar updates.** With `u = P h` and `s = hᵀ P h + r`, the Joseph form of a scalar
+//!   observation with any gain `k` is exactly `P⁺ = P − k uᵀ − u kᵀ + s k kᵀ`; with the optimal
+//!   `k = u/s` it is `P − u uᵀ/s`. A vector observation `H = [[b×], 0]`, `R = σ² I`, is rank two: in
+//!   the basis `e₁, e₂ ⊥ b̂, b̂` its rows are `(eₖ × b)ᵀ` and `0`, and the two scalar updates made one
+//!   after the other (the second on the covariance and innovation the first left) are the 3-D update
+//!   exactly; the component along `b̂` is pure noise and only enters the NIS. A tilt update projects
+//!   the gain, `K ← Π K` with `Π = I − V`, `V = diag(v vᵀ, v vᵀ)`: its Joseph form is
+//!   `P − G + V G V` with `G = Σ uₖ uₖᵀ/sₖ` the optimal update's reduction, so the same two scalar
+//!   updates give it too. No inverse, no Cholesky, no 6×6 product.
+//!
+//! Every kernel writes the upper triangle and mirrors it: the covariance stays exactly symmetric.
+
+/// A symmetric 6×6 covariance of `[δα; δβ]` as plain rows (nalgebra's `Matrix6` storage is the same
+/// array, by columns, which is the same matrix when it is symmetric).
+pub type Cov = [[f64; 6]; 6];
+pub type M3 = [[f64; 3]; 3];
+pub type V3 = [f64; 3];
+
+#[inline]
+fn dot3(a: &V3, b: &[f64]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn cross(a: &V3, b: &V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Copies the upper triangle to the lower one.
+#[inline]
+fn mirror(p: &mut Cov) {
+    for i in 1..6 {
+        for j in 0..i {
+            p[i][j] = p[j][i];
+        }
+    }
+}
+
+/// `(c₁, c₂, c₃) = (sin θ/‖ω‖, (1 − cos θ)/‖ω‖², (θ − sin θ)/‖ω‖³)`, `θ = ‖ω‖ Δt`, from `‖ω‖²`. Below
+/// θ = 0.1 rad (every sample of an IMU at 100 Hz or more turning slower than 10 rad/s) Taylor series to
+/// θ⁸, whose first omitted terms are below 3e-18 relative: no trigonometric call and none of the
+/// cancellation of `θ − sin θ`; above, one `sin_cos`.
+#[inline]
+pub fn phi_coefficients(w2: f64, dt: f64) -> (f64, f64, f64) {
+    let t = w2 * dt * dt;
+    if t < 0.01 {
+        let c1 = dt
+            * (1.0
+                - t * (1.0 / 6.0)
+                    * (1.0
+                        - t * (1.0 / 20.0) * (1.0 - t * (1.0 / 42.0) * (1.0 - t * (1.0 / 72.0)))));
+        let c2 = dt
+            * dt
+            * 0.5
+            * (1.0
+                - t * (1.0 / 12.0)
+                    * (1.0
+                        - t * (1.0 / 30.0) * (1.0 - t * (1.0 / 56.0) * (1.0 - t * (1.0 / 90.0)))));
+        let c3 = dt
+            * dt
+            * dt
+            * (1.0 / 6.0)
+            * (1.0
+                - t * (1.0 / 20.0)
+                    * (1.0
+                        - t * (1.0 / 42.0) * (1.0 - t * (1.0 / 72.0) * (1.0 - t * (1.0 / 110.0)))));
+        (c1, c2, c3)
+    } else {
+        let w = w2.sqrt();
+        let theta = w * dt;
+        let (s, c) = theta.sin_cos();
+        (s / w, (1.0 - c) / (w * w), (theta - s) / (w * w * w))
+    }
+}
+
+/// The two non-trivial blocks of `Φ`: `A = Φ₁₁ = I − c₁[ω×] + c₂[ω×]²` and
+/// `B = Φ₁₂ = c₂[ω×] − Δt I − c₃[ω×]²` (`Φ₂₁ = 0`, `Φ₂₂ = I`).
+#[inline]
+pub fn phi_blocks(w: &V3, dt: f64) -> (M3, M3) {
+    let sq = [w[0] * w[0], w[1] * w[1], w[2] * w[2]];
+    let (c1, c2, c3) = phi_coefficients(sq[0] + sq[1] + sq[2], dt);
+    let wx = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]];
+    // [ω×]² = ω ωᵀ − ‖ω‖² I, its diagonal summed from the other two squares (no cancellation).
+    let wx2 = [
+        [-(sq[1] + sq[2]), w[0] * w[1], w[0] * w[2]],
+        [w[0] * w[1], -(sq[0] + sq[2]), w[1] * w[2]],
+        [w[0] * w[2], w[1] * w[2], -(sq[0] + sq[1])],
+    ];
+    let mut a = [[0.0; 3]; 3];
+    let mut b = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            let one = if i == j { 1.0 } else { 0.0 };
+            a[i][j] = one - wx[i][j] * c1 + wx2[i][j] * c2;
+            b[i][j] = wx[i][j] * c2 - one * dt - wx2[i][j] * c3;
+        }
+    }
+    (a, b)
+}
+
+/// The per-axis entries of the Farrenkopf process noise over `Δt` (see [`super::process_noise`]):
+/// `Q₁₁ = q11 I`, `Q₁₂ = Q₂₁ = q12 I`, `Q₂₂ = q22 I`.
+#[derive(Clone, Copy, Debug)]
+pub struct Noise {
+    pub q11: f64,
+    pub q12: f64,
+    pub q22: f64,
+}
+
+/// `P ← D (Φ P Φᵀ + Q + e I_α) D` with `D = diag(I, φ_b I)` (`e` the rate-proportional attitude
+/// variance, `φ_b` the Gauss–Markov bias reversion), on the blocks (module documentation).
+pub fn propagate(p: &mut Cov, a: &M3, b: &M3, q: &Noise, extra: f64, phi_b: f64) {
+    // M = A P₁₂ + B P₂₂ and N = A P₁₁ + B P₂₁.
+    let mut m = [[0.0; 3]; 3];
+    let mut n = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            let (mut mij, mut nij) = (0.0, 0.0);
+            for k in 0..3 {
+                mij += a[i][k] * p[k][j + 3] + b[i][k] * p[k + 3][j + 3];
+                nij += a[i][k] * p[k][j] + b[i][k] * p[k + 3][j];
+            }
+            m[i][j] = mij;
+            n[i][j] = nij;
+        }
+    }
+    let scale = phi_b < 1.0;
+    for i in 0..3 {
+        for j in i..3 {
+            let mut v = 0.0;
+            for k in 0..3 {
+                v += n[i][k] * a[j][k] + m[i][k] * b[j][k];
+            }
+            p[i][j] = if i == j { v + q.q11 + extra } else { v };
+            let b22 = if i == j {
+                p[i + 3][j + 3] + q.q22
+            } else {
+                p[i + 3][j + 3]
+            };
+            p[i + 3][j + 3] = if scale { b22 * phi_b * phi_b } else { b22 };
+        }
+        for j in 0..3 {
+            let b12 = if i == j { m[i][j] + q.q12 } else { m[i][j] };
+            p[i][j + 3] = if scale { b12 * phi_b } else { b12 };
+        }
+    }
+    mirror(p);
+}
+
+/// `P h` for an observation of the attitude alone (`h = [h_α; 0]`).
+#[inline]
+fn p_att(p: &Cov, h: &V3) -> [f64; 6] {
+    std::array::from_fn(|i| p[i][0] * h[0] + p[i][1] * h[1] + p[i][2] * h[2])
+}
+
+/// `[v (v·x_α); v (v·x_β)]`: the vertical part of each half.
+#[inline]
+fn vertical_part(v: &V3, x: &[f64; 6]) -> [f64; 6] {
+    let (ca, cb) = (dot3(v, &x[..3]), dot3(v, &x[3..]));
+    [
+        v[0] * ca,
+        v[1] * ca,
+        v[2] * ca,
+        v[0] * cb,
+        v[1] * cb,
+        v[2] * cb,
+    ]
+}
+
+/// What an update changes besides the covariance: the error-state correction and `νᵀ S⁻¹ ν`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correction {
+    pub dx: [f64; 6],
+    pub nis: f64,
+}
+
+/// Two unit vectors that complete the unit `n` to a right-handed orthonormal basis, branch-free
+/// (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017).
+#[inline]
+fn basis(n: &V3) -> (V3, V3) {
+    let s = 1f64.copysign(n[2]);
+    let a = -1.0 / (s + n[2]);
+    let b = n[0] * n[1] * a;
+    (
+        [1.0 + s * n[0] * n[0] * a, s * b, -s * n[0]],
+        [b, s + n[1] * n[1] * a, -n[1]],
+    )
+}
+
+/// One vector observation `b̃ = A(q) r + v`, `R = σ² I`, about the predicted `b = Â r` with the
+/// innovation `nu`: the optimal update, or with `vertical` (the body-frame vertical, unit) the tilt
+/// update whose gain is projected perpendicular to it (module documentation). Updates `p`; `None` (and
+/// `p` unchanged) when the innovation covariance is not positive definite.
+pub fn vector(
+    p: &mut Cov,
+    b: &V3,
+    sigma: f64,
+    nu: &V3,
+    vertical: Option<&V3>,
+) -> Option<Correction> {
+    let r = sigma * sigma;
+    let bn = dot3(b, b).sqrt();
+    // S = diag(S₂, r) in the basis (e₁, e₂, b̂): singular without noise.
+    if !(r > 0.0 && r.is_finite() && bn.is_finite()) {
+        return None;
+    }
+    if bn == 0.0 {
+        // H = 0: nothing is observed, the innovation is all noise.
+        return Some(Correction {
+            dx: [0.0; 6],
+            nis: dot3(nu, nu) / r,
+        });
+    }
+    let bh = [b[0] / bn, b[1] / bn, b[2] / bn];
+    let (e1, e2) = basis(&bh);
+    let (h1, h2) = (cross(&e1, b), cross(&e2, b));
+    let (z1, z2, z3) = (dot3(&e1, nu), dot3(&e2, nu), dot3(&bh, nu));
+    let u1 = p_att(p, &h1);
+    let s1 = dot3(&h1, &u1) + r;
+    if !(s1 > 0.0 && s1.is_finite()) {
+        return None;
+    }
+    // The second row on what the first left: u₂ ← u₂ − l u₁, s₂ ← s₂ − l s₁₂, z₂ ← z₂ − l z₁.
+    let u2 = p_att(p, &h2);
+    let l = dot3(&h2, &u1) / s1;
+    let u2: [f64; 6] = std::array::from_fn(|i| u2[i] - l * u1[i]);
+    let s2 = dot3(&h2, &u2) + r;
+    if !(s2 > 0.0 && s2.is_finite()) {
+        return None;
+    }
+    let z2 = z2 - l * z1;
+    let (k1, k2) = (z1 / s1, z2 / s2);
+    let mut dx: [f64; 6] = std::array::from_fn(|i| u1[i] * k1 + u2[i] * k2);
+    let nis = z1 * k1 + z2 * k2 + z3 * z3 / r;
+    let (w1, w2): ([f64; 6], [f64; 6]) = (
+        std::array::from_fn(|i| u1[i] / s1),
+        std::array::from_fn(|i| u2[i] / s2),
+    );
+    match vertical {
+        None => {
+            for i in 0..6 {
+                for j in i..6 {
+                    p[i][j] -= w1[i] * u1[j] + w2[i] * u2[j];
+                }
+            }
+        }
+        Some(v) => {
+            // P − G + V G V, and the correction projected: dx ← dx − V dx.
+            let (y1, y2) = (vertical_part(v, &u1), vertical_part(v, &u2));
+            let (x1, x2) = (vertical_part(v, &w1), vertical_part(v, &w2));
+            for i in 0..6 {
+                for j in i..6 {
+                    p[i][j] -= (w1[i] * u1[j] - x1[i] * y1[j]) + (w2[i] * u2[j] - x2[i] * y2[j]);
+                }
+            }
+            let vd = vertical_part(v, &dx);
+            for i in 0..6 {
+                dx[i] -= vd[i];
+            }
+        }
+    }
+    mirror(p);
+    Some(Correction { dx, nis })
+}
+
+/// One heading-only observation `y = hᵀ δα + n`, `n ~ N(0, σ_ψ²)`, innovation `nu`, with the gain
+/// projected on the body-frame vertical `v` (`k = V u/s`), in the Joseph form of any scalar gain.
+/// `None` (and `p` unchanged) when `s ≤ 0`.
+pub fn heading(p: &mut Cov, h: &V3, v: &V3, sigma_psi: f64, nu: f64) -> Option<Correction> {
+    let r = sigma_psi * sigma_psi;
+    let u = p_att(p, h);
+    let s = dot3(h, &u) + r;
+    if !(s > 0.0 && s.is_finite()) {
+        return None;
+    }
+    let y = vertical_part(v, &u);
+    let k: [f64; 6] = std::array::from_fn(|i| y[i] / s);
+    for i in 0..6 {
+        for j in i..6 {
+            p[i][j] -= k[i] * u[j] + u[i] * k[j] - k[i] * y[j];
+        }
+    }
+    mirror(p);
+    Some(Correction {
+        dx: std::array::from_fn(|i| k[i] * nu),
+        nis: nu * nu / s,
+    })
+}
+
+/// A direct observation of the gyro bias, `z = β + n`, `n ~ N(0, σ² I₃)`, innovation `nu`: three
+/// scalar updates, one per axis (`R` is diagonal, so they are the 3-D update exactly). `None` (and
+/// `p` unchanged) when an innovation variance is not positive.
+pub fn bias(p: &mut Cov, sigma: f64, nu: &V3) -> Option<Correction> {
+    let r = sigma * sigma;
+    let mut q = *p;
+    let mut dx = [0.0; 6];
+    let mut nis = 0.0;
+    for axis in 0..3 {
+        let c = axis + 3;
+        let u: [f64; 6] = std::array::from_fn(|i| q[i][c]);
+        let s = u[c] + r;
+        if !(s > 0.0 && s.is_finite()) {
+            return None;
+        }
+        let z = nu[axis] - dx[c];
+        let k = z / s;
+        for i in 0..6 {
+            dx[i] += u[i] * k;
+        }
+        nis += z * k;
+        for i in 0..6 {
+            let wi = u[i] / s;
+            for j in i..6 {
+                q[i][j] -= wi * u[j];
+            }
+        }
+        mirror(&mut q);
+    }
+    *p = q;
+    Some(Correction { dx, nis })
+}
