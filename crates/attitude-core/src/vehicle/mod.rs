@@ -12,8 +12,8 @@
 use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
 use crate::filters::{
-    build_filter, is_spd, AttitudeFilter, Estimate, FilterError, FilterKind, FilterSpec,
-    InitialState, SAME_INSTANT_S,
+    build_filter, is_spd, plausibly_spd, AttitudeFilter, Estimate, FilterError, FilterKind,
+    FilterSpec, InitialState, SAME_INSTANT_S,
 };
 use crate::rejection::{RejectCode, Rejection};
 use crate::rng::{fnv1a as fnv, FNV_OFFSET};
@@ -131,8 +131,8 @@ pub struct VehicleState {
     /// Newest time accepted per stream, and the first time accepted at all.
     newest: [Option<f64>; STREAMS],
     first_t: Option<f64>,
-    /// `(t, fingerprint)` of recently accepted samples per stream.
-    recent: [VecDeque<(f64, u64)>; STREAMS],
+    /// Recently accepted samples per stream: their times and what identifies them.
+    recent: [VecDeque<(f64, Seen)>; STREAMS],
     jump: Option<JumpCandidate>,
     gate: BTreeMap<String, GateCounts>,
     consecutive_gated: u32,
@@ -168,13 +168,14 @@ fn seed_of(id: &str, generation: u64) -> u64 {
     fnv(id.bytes().chain(generation.to_le_bytes()), FNV_OFFSET)
 }
 
+/// The bytes of a vector, for the hash (no allocation: they are streamed into it).
+fn bits(v: &Vector3<f64>) -> impl Iterator<Item = u8> {
+    let v = *v;
+    (0..3).flat_map(move |i| v[i].to_bits().to_le_bytes())
+}
+
 /// Identifies a sample's content (duplicate detection).
 fn fingerprint(m: &Measurement) -> u64 {
-    // (No allocation: the bytes are streamed into the hash.)
-    let bits = |v: &Vector3<f64>| {
-        let v = *v;
-        (0..3).flat_map(move |i| v[i].to_bits().to_le_bytes())
-    };
     match m {
         Measurement::Gyro(g) => fnv(bits(&g.omega_body_rad_s), FNV_OFFSET),
         Measurement::Vectors(set) => set.observations.iter().fold(FNV_OFFSET, |h, o| {
@@ -183,13 +184,43 @@ fn fingerprint(m: &Measurement) -> u64 {
             let h = fnv(o.sigma.to_bits().to_le_bytes(), h);
             fnv(o.sensor.as_deref().unwrap_or("").bytes().chain([0]), h)
         }),
-        Measurement::Imu(s) => {
-            let h = fnv(bits(&s.gyr_rad_s), FNV_OFFSET);
-            let h = fnv(bits(&s.acc_m_s2), h);
-            match &s.mag {
-                Some(m) => fnv(bits(m), h),
-                None => h,
-            }
+        Measurement::Imu(s) => imu_fingerprint(s),
+    }
+}
+
+fn imu_fingerprint(s: &ImuSample) -> u64 {
+    let h = fnv(bits(&s.gyr_rad_s), FNV_OFFSET);
+    let h = fnv(bits(&s.acc_m_s2), h);
+    match &s.mag {
+        Some(m) => fnv(bits(m), h),
+        None => h,
+    }
+}
+
+/// What the duplicate check keeps of an accepted sample: the fingerprint of a vector set, the gyro or
+/// IMU sample itself, hashed only when it is needed (another sample at the same instant, a snapshot).
+/// FNV-1a is serial, a byte per multiply: an IMU sample's 72 bytes cost a tenth of its whole path.
+#[derive(Clone, Copy, Debug)]
+enum Seen {
+    Hashed(u64),
+    Gyro(Vector3<f64>),
+    Imu(ImuSample),
+}
+
+impl Seen {
+    fn of(m: &Measurement) -> Self {
+        match m {
+            Measurement::Gyro(g) => Seen::Gyro(g.omega_body_rad_s),
+            Measurement::Imu(s) => Seen::Imu(*s),
+            Measurement::Vectors(_) => Seen::Hashed(fingerprint(m)),
+        }
+    }
+
+    fn fingerprint(&self) -> u64 {
+        match self {
+            Seen::Hashed(h) => *h,
+            Seen::Gyro(w) => fnv(bits(w), FNV_OFFSET),
+            Seen::Imu(s) => imu_fingerprint(s),
         }
     }
 }
@@ -208,12 +239,19 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
     }
 }
 
-/// A finite unit quaternion and a finite, symmetric positive-definite covariance.
-fn healthy(e: &Estimate) -> bool {
+/// A finite unit quaternion and a finite, positive-definite covariance. The Kalman filters check their
+/// covariance at every commit, so their estimates get only the cheap necessary conditions here in
+/// release builds ([`plausibly_spd`]); a particle filter's is a sample covariance, checked nowhere
+/// else, and gets the full Cholesky.
+fn healthy(e: &Estimate, kind: FilterKind) -> bool {
+    let pd = match kind {
+        FilterKind::Qpf => is_spd(&e.covariance),
+        FilterKind::Mekf | FilterKind::Usque => plausibly_spd(&e.covariance),
+    };
     e.q.is_finite()
         && (e.q.norm() - 1.0).abs() < 1e-6
         && e.bias_rad_s.iter().all(|b| b.is_finite())
-        && is_spd(&e.covariance)
+        && pd
 }
 
 impl VehicleState {
@@ -327,7 +365,7 @@ impl VehicleState {
             return;
         };
         let e = filter.estimate();
-        if healthy(&e) {
+        if healthy(&e, self.spec().kind) {
             self.emit(e, out);
             return;
         }
@@ -336,7 +374,7 @@ impl VehicleState {
         if self.reinit_from_last_good("health", t, policy) {
             if let Slot::Tracking(filter) = &self.slot {
                 let e = filter.estimate();
-                if healthy(&e) {
+                if healthy(&e, self.spec().kind) {
                     self.emit(e, out);
                 }
             }
@@ -358,7 +396,7 @@ impl VehicleState {
     ) -> Result<(), Rejection> {
         let stream = stream_of(&m);
         let t = m.t_s();
-        let fp = fingerprint(&m);
+        let seen = Seen::of(&m);
         let same = self.recent[stream as usize]
             .iter()
             .find(|(rt, _)| (rt - t).abs() <= SAME_INSTANT_S);
@@ -366,7 +404,7 @@ impl VehicleState {
             (Stream::Imu, Some((_, rfp))) => {
                 return Err(Rejection::new(
                     RejectCode::Duplicate,
-                    if *rfp == fp {
+                    if rfp.fingerprint() == seen.fingerprint() {
                         format!("the IMU sample at t = {t} s was already accepted")
                     } else {
                         format!("a different IMU sample at t = {t} s was already accepted; one sample per instant")
@@ -376,7 +414,7 @@ impl VehicleState {
             (Stream::Gyro, Some((_, rfp))) => {
                 return Err(Rejection::new(
                     RejectCode::Duplicate,
-                    if *rfp == fp {
+                    if rfp.fingerprint() == seen.fingerprint() {
                         format!("the gyro sample at t = {t} s was already accepted")
                     } else {
                         format!("a different gyro sample at t = {t} s was already accepted; one rate per instant")
@@ -384,9 +422,9 @@ impl VehicleState {
                 ))
             }
             (Stream::Vectors, Some(_))
-                if self.recent[1]
-                    .iter()
-                    .any(|(rt, rfp)| (rt - t).abs() <= SAME_INSTANT_S && *rfp == fp) =>
+                if self.recent[1].iter().any(|(rt, rfp)| {
+                    (rt - t).abs() <= SAME_INSTANT_S && rfp.fingerprint() == seen.fingerprint()
+                }) =>
             {
                 return Err(Rejection::new(
                     RejectCode::Duplicate,
@@ -452,7 +490,7 @@ impl VehicleState {
         if recent.len() == RECENT {
             recent.pop_front();
         }
-        recent.push_back((t, fp));
+        recent.push_back((t, seen));
         let n = &mut self.newest[stream as usize];
         *n = Some(n.map_or(t, |x| x.max(t)));
         self.first_t.get_or_insert(t);

@@ -3,7 +3,7 @@
 
 use super::output::GateCounts;
 use super::policy::VehicleFilterConfig;
-use super::{Held, JumpCandidate, Slot, Stream, VehicleState, STREAMS};
+use super::{Held, JumpCandidate, Seen, Slot, Stream, VehicleState, STREAMS};
 use crate::ahrs::{Ahrs, AhrsState};
 use crate::filters::{Estimate, FilterState};
 use crate::sensors::imu::SensorState;
@@ -71,7 +71,12 @@ impl VehicleState {
                 .collect(),
             newest: self.newest,
             first_t: self.first_t,
-            recent: std::array::from_fn(|i| self.recent[i].iter().copied().collect()),
+            recent: std::array::from_fn(|i| {
+                self.recent[i]
+                    .iter()
+                    .map(|(t, seen)| (*t, seen.fingerprint()))
+                    .collect()
+            }),
             jump: self.jump,
             gate: self.gate.clone(),
             consecutive_gated: self.consecutive_gated,
@@ -116,7 +121,9 @@ impl VehicleState {
                 .collect::<VecDeque<_>>(),
             newest: s.newest,
             first_t: s.first_t,
-            recent: s.recent.map(VecDeque::from),
+            recent: s
+                .recent
+                .map(|r| r.into_iter().map(|(t, h)| (t, Seen::Hashed(h))).collect()),
             jump: s.jump,
             gate: s.gate,
             consecutive_gated: s.consecutive_gated,
