@@ -216,6 +216,8 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
         series: vec![None; trial.samples.len()],
     };
     let mut next = 0usize;
+    // The pipeline's diagnostics of the last estimate (converted for the run once, at the end).
+    let mut last_imu = None;
     let mut take = |events: &mut Vec<Event>, run: &mut Run| {
         for e in events.drain(..) {
             match e {
@@ -243,7 +245,7 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
                             });
                         }
                     }
-                    run.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
+                    last_imu = p.imu;
                 }
                 Event::Rejected(_, r) => {
                     *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
@@ -261,6 +263,7 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
     }
     state.flush_all(&setup.policy, &mut events);
     take(&mut events, &mut run);
+    run.imu = last_imu.as_ref().map(ImuDiagnosticsMsg::from);
     run.seconds = start.elapsed().as_secs_f64();
     run
 }
