@@ -26,7 +26,7 @@
 //!   ([`crate::sensors::Aspect::Heading`]), every `interval_s`, with the 1σ of a heading error that is
 //!   slow and correlated over `correlation_s` (`σ √(T_c / T_u)`), as field inhomogeneity is.
 
-use super::lowpass::first_order;
+use super::lowpass::{first_order, first_order_by, gain};
 use super::{HardIronConfig, MagConfig};
 use crate::sensors::imu::dip_rad;
 use crate::sensors::{Aspect, VectorObservation};
@@ -93,7 +93,7 @@ impl HardIronFit {
             let r = m - a_gyro * s.field_gyro - s.offset;
             self.recent_ms = first_order(self.recent_ms, r.norm_squared() / 3.0, dt_s, c.recent_s);
         }
-        if !(self.info.iter().all(|v| v.is_finite()) && self.ss.is_finite()) {
+        if !(all_finite(self.info.as_slice()) && self.ss.is_finite()) {
             *self = HardIronFit::default();
         }
     }
@@ -155,6 +155,20 @@ impl HardIronFit {
     fn recent_rms(&self) -> f64 {
         self.recent_ms.max(0.0).sqrt()
     }
+}
+
+/// True when every value is finite: `0·x` is 0 for a finite `x` and NaN otherwise, summed in four
+/// lanes (no early exit, no serial chain: it vectorises).
+fn all_finite(values: &[f64]) -> bool {
+    let mut lanes = [0.0; 4];
+    let chunks = values.chunks_exact(4);
+    let rest: f64 = chunks.remainder().iter().map(|v| v * 0.0).sum();
+    for c in chunks {
+        for i in 0..4 {
+            lanes[i] += c[i] * 0.0;
+        }
+    }
+    lanes.iter().sum::<f64>() + rest == 0.0
 }
 
 /// What the channel makes of the moment.
@@ -278,9 +292,11 @@ impl FieldChannel {
             return;
         }
         let dip = dip_rad(&(m / n), up_body);
+        // (Norm and dip filtered alike: one gain each for the low-pass and the reference.)
+        let (k_lp, k_ref) = (gain(dt, c.lowpass_s), gain(dt, c.reference_s));
         if self.lp_ready {
-            self.lp_norm = first_order(self.lp_norm, n, dt, c.lowpass_s);
-            self.lp_dip = first_order(self.lp_dip, dip, dt, c.lowpass_s);
+            self.lp_norm = first_order_by(self.lp_norm, n, k_lp);
+            self.lp_dip = first_order_by(self.lp_dip, dip, k_lp);
         } else {
             (self.lp_norm, self.lp_dip, self.lp_ready) = (n, dip, true);
         }
@@ -289,8 +305,8 @@ impl FieldChannel {
             self.undisturbed_s += dt;
             if self.undisturbed_s >= c.min_undisturbed_s {
                 self.disturbed = false;
-                self.norm = first_order(self.norm, ln, dt, c.reference_s);
-                self.dip = first_order(self.dip, ld, dt, c.reference_s);
+                self.norm = first_order_by(self.norm, ln, k_ref);
+                self.dip = first_order_by(self.dip, ld, k_ref);
                 let h = self.direction - UP * self.direction.dot(&UP);
                 self.set_reference(self.norm, self.dip, &h);
             }
@@ -307,8 +323,8 @@ impl FieldChannel {
             if rate_rad_s >= c.new_field_min_rate_rad_s {
                 self.candidate_s += dt;
             }
-            self.candidate_norm = first_order(self.candidate_norm, ln, dt, c.reference_s);
-            self.candidate_dip = first_order(self.candidate_dip, ld, dt, c.reference_s);
+            self.candidate_norm = first_order_by(self.candidate_norm, ln, k_ref);
+            self.candidate_dip = first_order_by(self.candidate_dip, ld, k_ref);
             if self.disturbed && self.candidate_s >= c.new_field_s {
                 let h = self.direction - UP * self.direction.dot(&UP);
                 self.set_reference(self.candidate_norm, self.candidate_dip, &h);

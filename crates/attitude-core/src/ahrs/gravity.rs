@@ -18,7 +18,7 @@
 //! `σ = σ_lp √(T_c / T_u)`, so the filter counts the information of one independent observation per
 //! `T_c`, not of every sample: this is what keeps the published tilt covariance honest.
 
-use super::lowpass::{first_order, Lowpass3};
+use super::lowpass::{first_order_by, gain, Lowpass3};
 use super::AccConfig;
 use crate::sensors::{Aspect, VectorObservation};
 use nalgebra::{Matrix3, Vector3};
@@ -75,16 +75,17 @@ impl GravityChannel {
         let f = a_gyro.transpose() * acc;
         let lp = self.lp.update(&f, dt_s);
         let lp2 = self.lp2.update(&f, dt_s);
+        let k = gain(dt_s, c.lowpass_s);
         if at_rest {
             let n = lp.norm();
             if n.is_finite() && n > 0.0 {
-                self.g0 = first_order(self.g0, n, dt_s, c.lowpass_s);
+                self.g0 = first_order_by(self.g0, n, k);
             }
         }
         let up = lp.try_normalize(0.0).unwrap_or(UP);
         let d = lp - lp2;
         let horizontal = d - up * d.dot(&up);
-        self.motion_ms = first_order(self.motion_ms, horizontal.norm_squared(), dt_s, c.lowpass_s);
+        self.motion_ms = first_order_by(self.motion_ms, horizontal.norm_squared(), k);
         if !self.motion_ms.is_finite() {
             self.motion_ms = 0.0;
         }

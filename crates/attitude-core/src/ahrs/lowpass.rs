@@ -73,8 +73,11 @@ impl Lowpass3 {
             self.dt_s = dt_s;
         }
         let [b0, b1, b2, a1, a2] = self.c;
-        let out = x * b0 + self.x[0] * b1 + self.x[1] * b2 - y[0] * a1 - y[1] * a2;
-        if !out.iter().all(|v| v.is_finite()) {
+        // (Per component, in the order of the vector expression x b₀ + x₁ b₁ + x₂ b₂ − y₁ a₁ − y₂ a₂.)
+        let (x1, x2, y1, y2) = (&self.x[0], &self.x[1], &y[0], &y[1]);
+        let out =
+            Vector3::from_fn(|i, _| x[i] * b0 + x1[i] * b1 + x2[i] * b2 - y1[i] * a1 - y2[i] * a2);
+        if !(out[0].is_finite() && out[1].is_finite() && out[2].is_finite()) {
             // Restart rather than carry a non-finite state.
             *self = Lowpass3::new(self.tau_s);
             return self.update(x, dt_s);
@@ -87,10 +90,21 @@ impl Lowpass3 {
 
 /// A first-order low-pass `y ← y + (x − y)(1 − e^{−Δt/τ})` of a scalar (for slowly adapting levels).
 pub fn first_order(y: f64, x: f64, dt_s: f64, tau_s: f64) -> f64 {
-    if !(tau_s > 0.0) {
-        return x;
+    first_order_by(y, x, gain(dt_s, tau_s))
+}
+
+/// The gain `1 − e^{−Δt/τ}` of [`first_order`], for several values filtered alike (one `exp`);
+/// `None` when `τ ≤ 0` (the input passes).
+pub fn gain(dt_s: f64, tau_s: f64) -> Option<f64> {
+    (tau_s > 0.0).then(|| 1.0 - (-dt_s / tau_s).exp())
+}
+
+/// [`first_order`] with its [`gain`].
+pub fn first_order_by(y: f64, x: f64, gain: Option<f64>) -> f64 {
+    match gain {
+        Some(k) => y + (x - y) * k,
+        None => x,
     }
-    y + (x - y) * (1.0 - (-dt_s / tau_s).exp())
 }
 
 #[cfg(test)]

@@ -131,8 +131,13 @@ impl Ahrs {
     }
 
     /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
-    /// Returns the interval since the previous sample.
-    fn preprocess(&mut self, c: &AhrsConfig, s: &ImuSample, bias: &Vector3<f64>) -> f64 {
+    /// Returns the interval since the previous sample and the gyro frame's attitude matrix.
+    fn preprocess(
+        &mut self,
+        c: &AhrsConfig,
+        s: &ImuSample,
+        bias: &Vector3<f64>,
+    ) -> (f64, Matrix3<f64>) {
         let dt = match self.t_s {
             Some(t) => (s.t_s - t).max(0.0),
             None => 0.0,
@@ -154,7 +159,7 @@ impl Ahrs {
         let a_gyro = self.q_gyro.attitude_matrix();
         self.gravity
             .update(&c.acc, &s.acc_m_s2, &a_gyro, dt, at_rest);
-        dt
+        (dt, a_gyro)
     }
 
     /// Takes a sample while no filter runs. Once `init.duration_s` of samples is collected, returns
@@ -268,7 +273,7 @@ impl Ahrs {
         // accelerometer and the hard-iron fit are kept in.
         let limit = c.rest.bias_limit_rad_s;
         let bias = filter.bias_rad_s().map(|b| b.clamp(-limit, limit));
-        let dt = self.preprocess(c, s, &bias);
+        let (dt, a_gyro) = self.preprocess(c, s, &bias);
         let omega = s.gyr_rad_s - bias;
         self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t.
@@ -278,7 +283,6 @@ impl Ahrs {
         }))?;
         filter.advance_to(s.t_s)?;
         let at_rest = self.counts.at_rest;
-        let a_gyro = self.q_gyro.attitude_matrix();
         // Bias at rest.
         self.since_bias_s += dt;
         if at_rest && self.since_bias_s + 1e-9 >= c.rest.interval_s {

@@ -748,17 +748,24 @@ pub fn is_spd(p: &Matrix6<f64>) -> bool {
 }
 
 /// The necessary conditions of positive definiteness: finite, a positive diagonal, every correlation
-/// within ±1 (`Pᵢⱼ² ≤ Pᵢᵢ Pⱼⱼ`). They catch what a failed step leaves (a NaN, a variance driven
+/// within ±1 (`Pᵢⱼ² ≤ Pᵢᵢ Pⱼⱼ`, upper triangle: the filters keep their covariances symmetric). They catch what a failed step leaves (a NaN, a variance driven
 /// negative) at a fraction of a Cholesky's cost, and are what release builds check where the steps
 /// themselves keep a covariance positive definite (the Kalman filters); debug builds and the core's
 /// tests run the full Cholesky ([`is_spd`]) as well.
 pub fn plausibly_spd(p: &Matrix6<f64>) -> bool {
     let a = &p.data.0;
-    let mut ok = true;
+    // Finite: 0·x is 0 for a finite x and NaN otherwise, summed in six lanes (it vectorises).
+    let mut lanes = [0.0; 6];
+    for row in a {
+        for j in 0..6 {
+            lanes[j] += row[j] * 0.0;
+        }
+    }
+    let mut ok = lanes.iter().sum::<f64>() == 0.0;
     for i in 0..6 {
-        ok &= a[i][i] > 0.0 && a[i][i] < f64::INFINITY;
+        ok &= a[i][i] > 0.0;
         for j in i + 1..6 {
-            ok &= a[i][j] * a[i][j] <= a[i][i] * a[j][j] && a[j][i] * a[j][i] <= a[i][i] * a[j][j];
+            ok &= a[i][j] * a[i][j] <= a[i][i] * a[j][j];
         }
     }
     if cfg!(any(debug_assertions, test)) {

@@ -116,44 +116,52 @@ pub struct Noise {
     pub q22: f64,
 }
 
-/// `P ← D (Φ P Φᵀ + Q + e I_α) D` with `D = diag(I, φ_b I)` (`e` the rate-proportional attitude
-/// variance, `φ_b` the Gauss–Markov bias reversion), on the blocks (module documentation).
-pub fn propagate(p: &mut Cov, a: &M3, b: &M3, q: &Noise, extra: f64, phi_b: f64) {
-    // M = A P₁₂ + B P₂₂ and N = A P₁₁ + B P₂₁.
-    let mut m = [[0.0; 3]; 3];
-    let mut n = [[0.0; 3]; 3];
+/// `D (Φ P Φᵀ + Q + e I_α) D` with `D = diag(I, φ_b I)` (`e` the rate-proportional attitude
+/// variance, `φ_b` the Gauss–Markov bias reversion, 1 for none), on the blocks (module documentation).
+pub fn propagate(p: &Cov, a: &M3, b: &M3, q: &Noise, extra: f64, phi_b: f64) -> Cov {
+    // M = A P₁₂ + B P₂₂ and N = A P₁₁ + B P₂₁, row by row: each row a sum of rows of P, in lanes of
+    // four (the fourth is padding) so that the compiler packs them.
+    let row = |r: usize, c: usize| [p[r][c], p[r][c + 1], p[r][c + 2], 0.0];
+    let (p11, p12, p21, p22): ([[f64; 4]; 3], [[f64; 4]; 3], [[f64; 4]; 3], [[f64; 4]; 3]) = (
+        std::array::from_fn(|k| row(k, 0)),
+        std::array::from_fn(|k| row(k, 3)),
+        std::array::from_fn(|k| row(k + 3, 0)),
+        std::array::from_fn(|k| row(k + 3, 3)),
+    );
+    let mut m = [[0.0; 4]; 3];
+    let mut n = [[0.0; 4]; 3];
     for i in 0..3 {
-        for j in 0..3 {
-            let (mut mij, mut nij) = (0.0, 0.0);
-            for k in 0..3 {
-                mij += a[i][k] * p[k][j + 3] + b[i][k] * p[k + 3][j + 3];
-                nij += a[i][k] * p[k][j] + b[i][k] * p[k + 3][j];
+        for k in 0..3 {
+            let (aik, bik) = (a[i][k], b[i][k]);
+            for j in 0..4 {
+                m[i][j] += aik * p12[k][j] + bik * p22[k][j];
+                n[i][j] += aik * p11[k][j] + bik * p21[k][j];
             }
-            m[i][j] = mij;
-            n[i][j] = nij;
         }
     }
-    let scale = phi_b < 1.0;
+    let mut out = [[0.0; 6]; 6];
     for i in 0..3 {
+        // P₁₁′ = N Aᵀ + M Bᵀ (upper triangle), P₁₂′ = M, P₂₂′ = P₂₂, plus Q and the reversion.
         for j in i..3 {
             let mut v = 0.0;
             for k in 0..3 {
                 v += n[i][k] * a[j][k] + m[i][k] * b[j][k];
             }
-            p[i][j] = if i == j { v + q.q11 + extra } else { v };
-            let b22 = if i == j {
-                p[i + 3][j + 3] + q.q22
+            let (v, b22) = if i == j {
+                (v + q.q11 + extra, p[i + 3][j + 3] + q.q22)
             } else {
-                p[i + 3][j + 3]
+                (v, p[i + 3][j + 3])
             };
-            p[i + 3][j + 3] = if scale { b22 * phi_b * phi_b } else { b22 };
+            out[i][j] = v;
+            out[i + 3][j + 3] = b22 * phi_b * phi_b;
         }
         for j in 0..3 {
             let b12 = if i == j { m[i][j] + q.q12 } else { m[i][j] };
-            p[i][j + 3] = if scale { b12 * phi_b } else { b12 };
+            out[i][j + 3] = b12 * phi_b;
         }
     }
-    mirror(p);
+    mirror(&mut out);
+    out
 }
 
 /// `P h` for an observation of the attitude alone (`h = [h_α; 0]`).

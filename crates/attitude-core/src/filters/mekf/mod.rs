@@ -272,8 +272,14 @@ impl FilterCore for Mekf {
         } else {
             1.0
         };
-        let mut p = cov(&self.p);
-        kernels::propagate(&mut p, &a, &b, &noise(&self.gyro, dt_s), extra, phi_b);
+        let p = kernels::propagate(
+            &self.p.data.0,
+            &a,
+            &b,
+            &noise(&self.gyro, dt_s),
+            extra,
+            phi_b,
+        );
         let bias = if phi_b < 1.0 {
             self.bias * phi_b
         } else {

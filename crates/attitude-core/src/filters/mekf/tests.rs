@@ -326,8 +326,7 @@ fn propagation_equals_the_dense_product() {
         }
         symmetrize(&mut want);
         let (a, b) = kernels::phi_blocks(&w.into(), dt);
-        let mut got: Cov = p0.data.0;
-        kernels::propagate(&mut got, &a, &b, &noise(&gyro, dt), extra, phi_b);
+        let got = kernels::propagate(&p0.data.0, &a, &b, &noise(&gyro, dt), extra, phi_b);
         let got = Matrix6::from_data(nalgebra::ArrayStorage(got));
         // The dense Φ's c₃ = (θ − sin θ)/‖ω‖³ loses ~eps/θ² of itself to cancellation; the series does not.
         assert_cov_close(&got, &want, &p0, 1e-12);
@@ -385,7 +384,7 @@ fn plausibility_check() {
     assert!(!plausibly_spd(&infinite));
     let mut lower = p;
     lower[(4, 0)] = f64::NAN;
-    assert!(!plausibly_spd(&lower), "either triangle");
+    assert!(!plausibly_spd(&lower), "a NaN in either triangle");
 }
 
 /// The quaternion and `Φ` of one step agree with each other: `Φ₁₁` is the rotation `δq(ω̂ Δt)` makes of
