@@ -439,7 +439,8 @@ impl FieldChannel {
                 reference: self.direction,
                 // heading_sigma_rad(σ, ‖r_h‖) = σ/‖r_h‖ = σ_ψ.
                 sigma: spread * horizontal,
-                sensor: Some("mag".into()),
+                // (No name: nothing reads it, and one would be an allocation per update.)
+                sensor: None,
                 aspect: Aspect::Heading(UP),
             },
             sigma_psi,

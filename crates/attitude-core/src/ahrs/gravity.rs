@@ -152,7 +152,8 @@ impl GravityChannel {
             body,
             reference: UP,
             sigma: sigma * correlated,
-            sensor: Some("acc".into()),
+            // (No name: nothing reads it, and one would be an allocation per update.)
+            sensor: None,
             aspect: Aspect::Tilt(UP),
         })
     }

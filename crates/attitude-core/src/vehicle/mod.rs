@@ -24,6 +24,7 @@ use crate::sensors::{
 use nalgebra::{Matrix3, Vector3};
 use policy::{InitMode, Policy, VehicleFilterConfig};
 use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
 
 mod gate;
 mod output;
@@ -115,7 +116,8 @@ pub struct Totals {
 
 /// A vehicle's complete state.
 pub struct VehicleState {
-    id: String,
+    /// Shared with every estimate published (a clone per sample is a count, not an allocation).
+    id: Arc<str>,
     config: VehicleFilterConfig,
     slot: Slot,
     /// Estimates published so far.
@@ -257,7 +259,7 @@ fn healthy(e: &Estimate, kind: FilterKind) -> bool {
 impl VehicleState {
     pub fn new(id: &str, config: VehicleFilterConfig) -> Self {
         VehicleState {
-            id: id.to_string(),
+            id: id.into(),
             config,
             slot: Slot::Initializing,
             seq: 0,
@@ -329,7 +331,7 @@ impl VehicleState {
             block += a.published_attitude_covariance();
         }
         Published {
-            vehicle: self.id.clone(),
+            vehicle: Arc::clone(&self.id),
             estimate,
             spec: self.spec(),
             particles: self.particles(),

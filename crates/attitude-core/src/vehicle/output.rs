@@ -5,6 +5,7 @@ use crate::ahrs::AhrsCounts;
 use crate::filters::{Estimate, FilterSpec};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// One sensor's gate counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -38,7 +39,7 @@ pub struct ImuDiagnostics {
 /// An estimate as the vehicle publishes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Published {
-    pub vehicle: String,
+    pub vehicle: Arc<str>,
     /// The filter's estimate; an IMU vehicle's attitude covariance includes the time-stamp
     /// uncertainty (`crate::ahrs`).
     pub estimate: Estimate,

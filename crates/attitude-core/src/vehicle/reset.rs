@@ -233,7 +233,7 @@ impl VehicleState {
             Slot::Initializing => None,
         };
         Ok(ResetOutcome {
-            vehicle: self.id.clone(),
+            vehicle: self.id.to_string(),
             tracking: self.is_tracking(),
             spec: self.spec(),
             particles: self.particles(),

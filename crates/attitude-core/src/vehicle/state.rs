@@ -51,7 +51,7 @@ impl VehicleState {
     /// The whole state as plain data (a checkpoint).
     pub fn snapshot(&self) -> VehicleSnapshot {
         VehicleSnapshot {
-            id: self.id.clone(),
+            id: self.id.to_string(),
             config: self.config.clone(),
             filter: match &self.slot {
                 Slot::Initializing => None,
@@ -103,7 +103,7 @@ impl VehicleState {
             return Err("the reorder window is not in time order".into());
         }
         Ok(VehicleState {
-            id: s.id,
+            id: s.id.into(),
             config: s.config,
             slot,
             seq: s.seq,
