@@ -122,7 +122,7 @@ fn turning(t: f64) -> Vector3<f64> {
 }
 
 fn preset() -> (VehicleFilterConfig, Policy) {
-    let c = config::parse(include_str!("../config/imu.json5"), "config/imu.json5").unwrap();
+    let c = config::parse(include_str!("../../config/imu.json5"), "config/imu.json5").unwrap();
     (c.service.default_filter.clone(), c.service.policy.clone())
 }
 

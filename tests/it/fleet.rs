@@ -100,7 +100,7 @@ fn filters_start_with_the_full_covariance() {
 fn a_vehicle_taken_over_continues_from_the_estimate() {
     let base = ServiceConfig::default().default_filter;
     let mut e: EstimateMsg =
-        serde_json::from_str(include_str!("../proto/examples/estimate-qpf.json")).unwrap();
+        serde_json::from_str(include_str!("../../proto/examples/estimate-qpf.json")).unwrap();
     e.diagnostics.particles = Some(500);
     let seed = TakeoverSeed::try_from(&e).unwrap();
     let state = VehicleState::take_over("sc1", &base, &seed, None).unwrap();

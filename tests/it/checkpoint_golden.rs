@@ -32,7 +32,7 @@ fn dir() -> PathBuf {
 }
 
 fn preset() -> (VehicleFilterConfig, Policy) {
-    let c = config::parse(include_str!("../config/imu.json5"), "config/imu.json5").unwrap();
+    let c = config::parse(include_str!("../../config/imu.json5"), "config/imu.json5").unwrap();
     (c.service.default_filter.clone(), c.service.policy.clone())
 }
 
@@ -104,7 +104,7 @@ fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
         }
         "mekf-vectors" => {
             // The defaults, with an accelerometer and a magnetometer modelled (their state is saved).
-            let text = include_str!("../config/default.json5").replace(
+            let text = include_str!("../../config/default.json5").replace(
                 "    sensors: {},",
                 r#"    sensors: { acc: { kind: "gravity" }, mag: { kind: "field", heading_only: true } },"#,
             );
