@@ -4,6 +4,8 @@
 //! The persisted cases of the property tests are in `tests/proptest-regressions/<module>.txt`, where
 //! proptest looks for them by default (beside the folder of this `main.rs`).
 
+mod common;
+
 mod ahrs;
 mod bad_inputs;
 mod checkpoint_golden;

@@ -2,6 +2,7 @@
 //! printing: its manifest has no such dependency (so the compiler refuses any), and its code no file
 //! or console access.
 
+use crate::common::repo;
 use std::path::Path;
 
 const CORE: &[&str] = &["crates/attitude-core/src"];
@@ -32,7 +33,7 @@ fn rust_files(path: &Path, out: &mut Vec<std::path::PathBuf>) {
 
 #[test]
 fn the_core_crate_depends_on_no_io_crate() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
     let deps = manifest
         .split("[dependencies]")
@@ -51,7 +52,7 @@ fn the_core_crate_depends_on_no_io_crate() {
 /// behind the optional `serde` feature, on the configuration sections read from a file.
 #[test]
 fn the_core_serialises_no_state() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
     let serde_line = manifest
         .lines()
@@ -84,7 +85,7 @@ fn the_core_serialises_no_state() {
 
 #[test]
 fn numeric_core_does_no_io() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let mut files = Vec::new();
     for c in CORE {
         rust_files(&root.join(c), &mut files);
@@ -131,7 +132,7 @@ fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
 
 #[test]
 fn anyhow_only_in_the_command_layer() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let allowed = [root.join("src/main.rs"), root.join("src/cli")];
     let violations: Vec<String> = library_code(root)
         .into_iter()
@@ -148,7 +149,7 @@ fn anyhow_only_in_the_command_layer() {
 
 #[test]
 fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let mut violations = Vec::new();
     for (f, code) in library_code(root) {
         for (n, line) in code.lines().enumerate() {
@@ -173,7 +174,7 @@ fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
 /// service no study or tool code (a statistic both need lives in the core: `crate::stats`).
 #[test]
 fn layers_import_downwards() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let rules: &[(&[&str], &[&str])] = &[
         (
             CORE,
