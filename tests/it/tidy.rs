@@ -219,3 +219,50 @@ fn layers_import_downwards() {
         violations.join("\n")
     );
 }
+
+/// The persisted cases of the property tests are replayed only from where proptest reads them: with
+/// `tests/it/main.rs` beside the modules, `tests/proptest-regressions/<module>.txt` (its default,
+/// `SourceParallel`). A file anywhere else under `tests/` would silently replay nothing.
+#[test]
+fn persisted_property_cases_are_where_proptest_reads_them() {
+    let tests = repo().join("tests");
+    let persisted = tests.join("proptest-regressions");
+    let mut files = Vec::new();
+    let mut stray = Vec::new();
+    let mut walk = vec![tests.clone()];
+    while let Some(dir) = walk.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk.push(path);
+            } else if path.starts_with(&persisted) {
+                files.push(path);
+            } else if path.to_string_lossy().contains("proptest-regressions") {
+                stray.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(
+        stray.is_empty(),
+        "persisted proptest cases proptest does not read: {stray:?}"
+    );
+    assert!(
+        !files.is_empty(),
+        "{} holds the persisted cases",
+        persisted.display()
+    );
+    for f in files {
+        let module = tests
+            .join("it")
+            .join(f.file_stem().unwrap())
+            .with_extension("rs");
+        let source = std::fs::read_to_string(&module)
+            .unwrap_or_else(|e| panic!("{}: no module {} ({e})", f.display(), module.display()));
+        assert!(
+            f.extension().is_some_and(|e| e == "txt") && source.contains("proptest!"),
+            "{}: not the persisted cases of the property tests of {}",
+            f.display(),
+            module.display()
+        );
+    }
+}
