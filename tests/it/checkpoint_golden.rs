@@ -5,7 +5,7 @@
 //! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`, which
 //! reads the format-3 files kept here), and add the new version's files with
 //!
-//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test checkpoint_golden -- --test-threads=1
+//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test it checkpoint_golden:: -- --test-threads=1
 //!
 //! Two vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
 //! low-passes, rest detector and field model) and an MEKF fed gyro and named vector sensors (gate
@@ -165,7 +165,7 @@ fn golden_checkpoints_read_back_and_write_back_the_same() {
         let c = persist::decode(&bytes).unwrap_or_else(|e| {
             panic!(
                 "{}: {e}. The checkpoint format changed: bump persist::VERSION and add this \
-                 version's golden files (see the header of tests/checkpoint_golden.rs)",
+                 version's golden files (see the header of tests/it/checkpoint_golden.rs)",
                 path.display()
             )
         });

@@ -2,7 +2,7 @@
 //! tilt and do correct the heading, a disturbed magnetometer is detected and held off, a large
 //! accelerometer norm deviation gates the accelerometer, and the service's config reads the models
 //! and refuses wrong ones. (These are the models of named sensors on `P/V/vectors`; raw samples on
-//! `P/V/imu` go through `crate::ahrs`, tested in `tests/ahrs.rs`.)
+//! `P/V/imu` go through `crate::ahrs`, tested in `tests/it/ahrs.rs`.)
 
 use crate::common::estimates;
 use attitude_service::attitude::Quaternion;

@@ -20,7 +20,7 @@
 //! Reset requests are also applied to a fresh and to a tracking vehicle (`VehicleState::on_reset`):
 //! accepted, the vehicle's estimate is healthy; refused, the vehicle is unchanged.
 //!
-//! Run in release: `cargo test --release --test parsers_prop` (about 5 s of tests).
+//! Run in release: `cargo test --release --test it parsers_prop::` (about 5 s of tests).
 //!
 //! What these properties found is marked `FINDING` where it was found; every finding is fixed and its
 //! test passes. FINDING 1 is the documented contract of `Driver::process` (a refused update keeps the

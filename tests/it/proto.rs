@@ -612,7 +612,7 @@ fn every_example_file_is_in_the_table_and_every_schema_has_an_example() {
     let missing: Vec<_> = listed.difference(&on_disk).collect();
     assert!(
         stray.is_empty(),
-        "examples not in the table of tests/proto.rs: {stray:?}"
+        "examples not in the table of tests/it/proto.rs: {stray:?}"
     );
     assert!(
         missing.is_empty(),

@@ -249,7 +249,7 @@ async fn measurements_estimates_queries_and_rejections() {
         assert_eq!(last.t, 30.0);
         // Near the truth: the observations are exact (σ = 1e-4 rad told), so the error is well inside
         // the covariance; a gross check, NEES below χ²₃(0.9995) = 17.73 (0.999 over the two vehicles;
-        // one sample cannot tell a covariance 1.5× off, tests/qpf.rs and tests/usque.rs do). Measured:
+        // one sample cannot tell a covariance 1.5× off, tests/it/qpf.rs and tests/it/usque.rs do). Measured:
         // 9e-23 (MEKF) and 0.0097 (QPF).
         let q = last.q.to_domain().unwrap();
         let err = truth.small_angle_error(&q);
