@@ -749,9 +749,10 @@ pub fn is_spd(p: &Matrix6<f64>) -> bool {
 
 /// The necessary conditions of positive definiteness: finite, a positive diagonal, every correlation
 /// within ±1 (`Pᵢⱼ² ≤ Pᵢᵢ Pⱼⱼ`, upper triangle: the filters keep their covariances symmetric). They catch what a failed step leaves (a NaN, a variance driven
-/// negative) at a fraction of a Cholesky's cost, and are what release builds check where the steps
-/// themselves keep a covariance positive definite (the Kalman filters); debug builds and the core's
-/// tests run the full Cholesky ([`is_spd`]) as well.
+/// negative) at a fraction of a Cholesky's cost: release builds check a Kalman filter's estimate with
+/// them before it is published, every sample (the filter checked its covariance in full when it last
+/// updated, and a propagation keeps it positive definite); debug builds and the core's tests run the
+/// full Cholesky ([`is_spd`]) as well.
 pub fn plausibly_spd(p: &Matrix6<f64>) -> bool {
     let a = &p.data.0;
     // Finite: 0·x is 0 for a finite x and NaN otherwise, summed in six lanes (it vectorises).

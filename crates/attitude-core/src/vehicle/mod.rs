@@ -242,9 +242,9 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
 }
 
 /// A finite unit quaternion and a finite, positive-definite covariance. The Kalman filters check their
-/// covariance at every commit, so their estimates get only the cheap necessary conditions here in
-/// release builds ([`plausibly_spd`]); a particle filter's is a sample covariance, checked nowhere
-/// else, and gets the full Cholesky.
+/// covariance in full when they update, so their estimates get only the cheap necessary conditions
+/// here, every sample, in release builds ([`plausibly_spd`]); a particle filter's is a sample
+/// covariance, checked nowhere else, and gets the full Cholesky.
 fn healthy(e: &Estimate, kind: FilterKind) -> bool {
     let pd = match kind {
         FilterKind::Qpf => is_spd(&e.covariance),
