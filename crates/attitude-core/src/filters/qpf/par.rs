@@ -1,0 +1,129 @@
+//! Blocks of particles on one or more threads. The cloud is cut into blocks of [`BLOCK`] particles
+//! whatever the thread count; a thread takes a run of whole blocks, and the blocks' sums are added in
+//! block order afterwards, so the result has the same bits on one thread or many.
+
+use super::kernels::BLOCK;
+use std::sync::OnceLock;
+
+/// Below this many particles a pass stays on the calling thread (a thread costs ~20 µs to start).
+pub(super) const PARALLEL_FROM: usize = 16 * BLOCK;
+
+/// Columns that can be cut at a particle index.
+pub(super) trait Split: Sized + Send {
+    fn split_at(self, mid: usize) -> (Self, Self);
+}
+
+impl Split for &[f64] {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        <[f64]>::split_at(self, mid)
+    }
+}
+
+impl Split for &mut [f64] {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        self.split_at_mut(mid)
+    }
+}
+
+impl Split for &[u32] {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        <[u32]>::split_at(self, mid)
+    }
+}
+
+impl<T: Split, const K: usize> Split for [T; K] {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let mut tails: [Option<T>; K] = [const { None }; K];
+        let mut k = 0;
+        let heads = self.map(|c| {
+            let (h, t) = c.split_at(mid);
+            tails[k] = Some(t);
+            k += 1;
+            h
+        });
+        (heads, tails.map(|t| t.expect("every column was split")))
+    }
+}
+
+impl<A: Split, B: Split> Split for (A, B) {
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let (a0, a1) = self.0.split_at(mid);
+        let (b0, b1) = self.1.split_at(mid);
+        ((a0, b0), (a1, b1))
+    }
+}
+
+/// The threads a pass over `n` particles uses when the filter does not say: every core from
+/// [`PARALLEL_FROM`] particles on, else one.
+pub(super) fn auto_threads(n: usize) -> usize {
+    static CORES: OnceLock<usize> = OnceLock::new();
+    if n < PARALLEL_FROM {
+        return 1;
+    }
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |c| c.get()))
+}
+
+/// `f(k, block k of view)` over the `len` particles of `view`, block by block, blocks `first..` on
+/// this thread; `fold` gets the results in block order.
+fn sequential<V: Split, P>(
+    view: V,
+    len: usize,
+    first: u64,
+    f: &(impl Fn(u64, V) -> P + Sync),
+    fold: &mut impl FnMut(P),
+) {
+    let (mut rest, mut start, mut k) = (view, 0, first);
+    while start < len {
+        let m = BLOCK.min(len - start);
+        let (head, tail) = rest.split_at(m);
+        fold(f(k, head));
+        rest = tail;
+        start += m;
+        k += 1;
+    }
+}
+
+/// `f(k, block k)` for every block of `view` (`len` particles) on up to `threads` threads, `fold` of
+/// the results in block order.
+pub(super) fn blocks<V: Split, P: Send>(
+    threads: usize,
+    len: usize,
+    view: V,
+    f: impl Fn(u64, V) -> P + Sync,
+    mut fold: impl FnMut(P),
+) {
+    let n_blocks = len.div_ceil(BLOCK);
+    let threads = threads.clamp(1, n_blocks.max(1));
+    if threads == 1 {
+        sequential(view, len, 0, &f, &mut fold);
+        return;
+    }
+    let per = n_blocks.div_ceil(threads);
+    let f = &f;
+    std::thread::scope(|s| {
+        // This thread takes the first run of blocks, spawned threads the others.
+        let mine = (per * BLOCK).min(len);
+        let (head, mut rest) = view.split_at(mine);
+        let mut handles = Vec::with_capacity(threads - 1);
+        let mut start = mine;
+        while start < len {
+            let m = (per * BLOCK).min(len - start);
+            let (part, tail) = rest.split_at(m);
+            rest = tail;
+            let first = (start / BLOCK) as u64;
+            handles.push(s.spawn(move || {
+                let mut out = Vec::with_capacity(per);
+                sequential(part, m, first, f, &mut |p| out.push(p));
+                out
+            }));
+            start += m;
+        }
+        sequential(head, mine, 0, f, &mut fold);
+        for h in handles {
+            match h.join() {
+                Ok(results) => results.into_iter().for_each(&mut fold),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+    });
+}
