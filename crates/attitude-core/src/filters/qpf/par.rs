@@ -3,6 +3,7 @@
 //! block order afterwards, so the result has the same bits on one thread or many.
 
 use super::kernels::BLOCK;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
 
 /// Below this many particles a pass stays on the calling thread (a thread costs ~20 µs to start).
@@ -53,14 +54,26 @@ impl<A: Split, B: Split> Split for (A, B) {
     }
 }
 
-/// The threads a pass over `n` particles uses when the filter does not say: every core from
-/// [`PARALLEL_FROM`] particles on, else one.
-pub(super) fn auto_threads(n: usize) -> usize {
+static MAX_THREADS: AtomicUsize = AtomicUsize::new(0);
+
+/// At most this many threads per pass of any particle filter of this process (0: one per core, the
+/// default). Benchmarks use it; the estimates are the same bits whatever it is.
+pub fn set_max_threads(n: usize) {
+    MAX_THREADS.store(n, Ordering::Relaxed);
+}
+
+/// The threads a pass over `n` particles uses when the filter does not say: every core (or
+/// [`set_max_threads`]) from [`PARALLEL_FROM`] particles on, else one.
+pub fn auto_threads(n: usize) -> usize {
     static CORES: OnceLock<usize> = OnceLock::new();
     if n < PARALLEL_FROM {
         return 1;
     }
-    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |c| c.get()))
+    let cores = *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |c| c.get()));
+    match MAX_THREADS.load(Ordering::Relaxed) {
+        0 => cores,
+        m => m,
+    }
 }
 
 /// `f(k, block k of view)` over the `len` particles of `view`, block by block, blocks `first..` on
