@@ -1,6 +1,6 @@
 """proto/bad-inputs.json through the real binary over zenoh: one case per row.
 
-proto/BAD_INPUTS.md ("How a row is tested") describes the setup and the checks; tests/bad_inputs.rs runs the
+proto/BAD_INPUTS.md ("How a row is tested") describes the setup and the checks; tests/it/bad_inputs.rs runs the
 same rows against an in-process engine. Rows without `config` use the shared service (each with a healthy
 vehicle of its own, switched to the MEKF by a reset before it starts, fed gyro samples or, for the rows of
 leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `config` (overrides of
@@ -19,7 +19,7 @@ import pytest
 from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate, wait_until
 
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
-#: The keys a row may have (tests/bad_inputs.rs refuses any other, `known_issue` included).
+#: The keys a row may have (tests/it/bad_inputs.rs refuses any other, `known_issue` included).
 ROW_KEYS = {"id", "case", "leaf", "healthy", "vehicle", "payload", "payload_hex", "payload_gen", "config", "code",
             "propagated_to"}
 #: Codes decided by the vehicle after the input was queued (the vehicle's `received` counts it).

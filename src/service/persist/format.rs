@@ -6,7 +6,7 @@
 //!
 //! Each struct is declared by [`saved!`], which also converts it: the conversion destructures the core
 //! type without `..`, so a field added to the core does not compile until it is added here, and a
-//! change here changes the golden checkpoint test's bytes (`tests/checkpoint_golden.rs`): the format
+//! change here changes the golden checkpoint test's bytes (`tests/it/checkpoint_golden.rs`): the format
 //! never changes by accident.
 
 use super::SavedCounters;

@@ -49,7 +49,7 @@ pub(crate) fn half_angle_series(theta_sq: f64) -> (f64, f64) {
 /// * `q` and `−q` are the same attitude. Wire formats write `{"w", "x", "y", "z"}` and normalise
 ///   `w ≥ 0`; this type is never serialised directly.
 ///
-/// These statements are pinned by tests with known numbers (`tests/conventions.rs`).
+/// These statements are pinned by tests with known numbers (`tests/it/conventions.rs`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quaternion {
     pub x: f64,

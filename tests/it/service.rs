@@ -1,5 +1,6 @@
 //! The service over real zenoh on loopback: a service session and a client session in one process.
 
+use crate::common::{free_port, open_zenoh, repo, service_config, wait_until_async};
 use attitude_service::attitude::Quaternion;
 use attitude_service::service::config::{parse, ServiceConfig};
 use attitude_service::wire::{
@@ -11,24 +12,6 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::query::ConsolidationMode;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn zenoh_config(listen: &[String], connect: &[String]) -> zenoh::Config {
-    let json = serde_json::json!({
-        "mode": "peer",
-        "listen": {"endpoints": listen},
-        "connect": {"endpoints": connect},
-        "scouting": {"multicast": {"enabled": false}},
-    });
-    zenoh::Config::from_json5(&json.to_string()).unwrap()
-}
-
 struct Harness {
     client: zenoh::Session,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
@@ -38,31 +21,26 @@ struct Harness {
 impl Harness {
     async fn start(service: ServiceConfig) -> Harness {
         let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        let s = zenoh::open(zenoh_config(&[endpoint.clone()], &[]))
-            .await
-            .unwrap();
+        let s = open_zenoh(&[endpoint.clone()], &[]).await;
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(attitude_service::service::run(s, service, async {
             let _ = rx.await;
         }));
-        let client = zenoh::open(zenoh_config(&[], &[endpoint])).await.unwrap();
+        let client = open_zenoh(&[], &[endpoint]).await;
         let h = Harness {
             client,
             stop: Some(tx),
             service: Some(task),
         };
         // Declarations propagate asynchronously: poll the health queryable with a deadline.
-        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-        loop {
-            if h.get::<HealthMsg>("attitude/@/health").await.is_ok() {
-                break;
-            }
-            assert!(
-                tokio::time::Instant::now() < deadline,
-                "the service did not come up"
-            );
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
+        let hr = &h;
+        wait_until_async(
+            "the service to answer on attitude/@/health",
+            Duration::from_secs(10),
+            || async move { hr.get::<HealthMsg>("attitude/@/health").await.is_ok() },
+        )
+        .await
+        .unwrap();
         h
     }
 
@@ -148,13 +126,9 @@ fn star_set(q_true: &Quaternion, t: f64) -> VectorsMsg {
     }
 }
 
-fn config(text: &str) -> ServiceConfig {
-    parse(text, "test").unwrap().service
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn measurements_estimates_queries_and_rejections() {
-    let h = Harness::start(config(
+    let h = Harness::start(service_config(
         r#"{ service: { filter: { kind: "qpf", particles: 300 }, vehicles: { "m1": { kind: "mekf" } } } }"#,
     ))
     .await;
@@ -226,21 +200,25 @@ async fn measurements_estimates_queries_and_rejections() {
         .await
         .unwrap();
 
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    loop {
-        let (n_est, n_rej) = (
+    let counts = || {
+        (
             estimates.lock().unwrap().len(),
             rejected.lock().unwrap().len(),
-        );
-        if n_est >= 60 && n_rej >= 3 {
-            break;
-        }
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "{n_est} estimates, {n_rej} rejections"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+        )
+    };
+    wait_until_async(
+        "60 estimates and 3 rejections",
+        Duration::from_secs(20),
+        || {
+            let (n_est, n_rej) = counts();
+            std::future::ready(n_est >= 60 && n_rej >= 3)
+        },
+    )
+    .await
+    .unwrap_or_else(|e| {
+        let (n_est, n_rej) = counts();
+        panic!("{e}: {n_est} estimates, {n_rej} rejections")
+    });
     let codes: Vec<String> = rejected
         .lock()
         .unwrap()
@@ -271,7 +249,7 @@ async fn measurements_estimates_queries_and_rejections() {
         assert_eq!(last.t, 30.0);
         // Near the truth: the observations are exact (σ = 1e-4 rad told), so the error is well inside
         // the covariance; a gross check, NEES below χ²₃(0.9995) = 17.73 (0.999 over the two vehicles;
-        // one sample cannot tell a covariance 1.5× off, tests/qpf.rs and tests/usque.rs do). Measured:
+        // one sample cannot tell a covariance 1.5× off, tests/it/qpf.rs and tests/it/usque.rs do). Measured:
         // 9e-23 (MEKF) and 0.0097 (QPF).
         let q = last.q.to_domain().unwrap();
         let err = truth.small_angle_error(&q);
@@ -406,11 +384,8 @@ async fn reset_gives_an_attitude_and_refuses_bad_parameters() {
 
 #[test]
 fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
-    let file = attitude_service::service::config::load(std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/config/default.json5"
-    )))
-    .unwrap();
+    let file =
+        attitude_service::service::config::load(&repo().join("config/default.json5")).unwrap();
     assert_eq!(file.service, ServiceConfig::default());
     zenoh::Config::from_json5(&file.zenoh_json).unwrap();
     assert!(file.zenoh_json.contains("tcp/127.0.0.1:7447"));
@@ -430,7 +405,10 @@ fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
 async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
     use attitude_service::service::keys::Keys;
     use attitude_service::tools::loadgen::{echo, run, LoadOptions};
-    let h = Harness::start(config(r#"{ service: { filter: { kind: "mekf" } } }"#)).await;
+    let h = Harness::start(service_config(
+        r#"{ service: { filter: { kind: "mekf" } } }"#,
+    ))
+    .await;
     let options = LoadOptions {
         vehicles: 3,
         rate_hz: 20.0,

@@ -16,6 +16,7 @@
 //! silently check nothing), and that their one pattern, the vehicle id, accepts exactly the ids the
 //! service accepts. (Python validates live replies against the same files with `jsonschema`.)
 
+use crate::common::proto_dir;
 use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
@@ -28,7 +29,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const DRAFT_2020_12: &str = "https://json-schema.org/draft/2020-12/schema";
 /// The only pattern of the schemas, the vehicle id: it accepts what `wire::validate_vehicle_id` accepts.
@@ -108,10 +109,6 @@ fn round_trip<T: DeserializeOwned + Serialize>(example: &Value) -> Result<(), St
             "re-encodes differently\n    example: {example}\n    Rust:    {again}"
         ))
     }
-}
-
-fn proto_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("proto")
 }
 
 fn read_json(path: &Path) -> Value {
@@ -615,7 +612,7 @@ fn every_example_file_is_in_the_table_and_every_schema_has_an_example() {
     let missing: Vec<_> = listed.difference(&on_disk).collect();
     assert!(
         stray.is_empty(),
-        "examples not in the table of tests/proto.rs: {stray:?}"
+        "examples not in the table of tests/it/proto.rs: {stray:?}"
     );
     assert!(
         missing.is_empty(),

@@ -2,6 +2,7 @@
 //! (the 3σ still holds the truth), the innovation gate and its way back, filter health, checkpoints
 //! (a restored vehicle continues bit for bit), corrupt checkpoint files.
 
+use crate::common::{default_policy as policy, estimates, scratch_dir};
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, FilterKind, FilterSpec, InitialState};
 use attitude_service::sensors::{
@@ -14,10 +15,6 @@ use attitude_service::wire::{EstimateMsg, RejectCode};
 use nalgebra::Vector3;
 
 const STAR_SIGMA: f64 = 1e-4;
-
-fn policy() -> Policy {
-    ServiceConfig::default().policy
-}
 
 fn config(kind: &str, particles: usize) -> VehicleFilterConfig {
     let mut c = ServiceConfig::default().default_filter;
@@ -57,17 +54,6 @@ fn gyro(t: f64, w: Vector3<f64>) -> Measurement {
         t_s: t,
         omega_body_rad_s: w,
     })
-}
-
-/// The estimates among `events`, as the service publishes them.
-fn estimates(events: &[Event]) -> Vec<EstimateMsg> {
-    events
-        .iter()
-        .filter_map(|e| match e {
-            Event::Estimate(p) => Some(EstimateMsg::from(p)),
-            _ => None,
-        })
-        .collect()
 }
 
 fn rejections(events: &[Event]) -> Vec<RejectCode> {
@@ -464,8 +450,7 @@ fn a_checkpoint_restores_the_vehicle_bit_for_bit() {
 #[test]
 fn corrupt_or_partial_checkpoints_are_reported_and_skipped() {
     let p = policy();
-    let dir = std::env::temp_dir().join(format!("attitude-ckpt-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = scratch_dir("ckpt");
     std::fs::create_dir_all(&dir).unwrap();
     let mut v = VehicleState::new("good", config("mekf", 0));
     run_inputs(&mut v, &p, 0, 3, &Quaternion::IDENTITY);

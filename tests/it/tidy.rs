@@ -2,6 +2,7 @@
 //! printing: its manifest has no such dependency (so the compiler refuses any), and its code no file
 //! or console access.
 
+use crate::common::repo;
 use std::path::Path;
 
 const CORE: &[&str] = &["crates/attitude-core/src"];
@@ -32,7 +33,7 @@ fn rust_files(path: &Path, out: &mut Vec<std::path::PathBuf>) {
 
 #[test]
 fn the_core_crate_depends_on_no_io_crate() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
     let deps = manifest
         .split("[dependencies]")
@@ -51,7 +52,7 @@ fn the_core_crate_depends_on_no_io_crate() {
 /// behind the optional `serde` feature, on the configuration sections read from a file.
 #[test]
 fn the_core_serialises_no_state() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let manifest = std::fs::read_to_string(root.join("crates/attitude-core/Cargo.toml")).unwrap();
     let serde_line = manifest
         .lines()
@@ -84,7 +85,7 @@ fn the_core_serialises_no_state() {
 
 #[test]
 fn numeric_core_does_no_io() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let mut files = Vec::new();
     for c in CORE {
         rust_files(&root.join(c), &mut files);
@@ -131,7 +132,7 @@ fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
 
 #[test]
 fn anyhow_only_in_the_command_layer() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let allowed = [root.join("src/main.rs"), root.join("src/cli")];
     let violations: Vec<String> = library_code(root)
         .into_iter()
@@ -148,7 +149,7 @@ fn anyhow_only_in_the_command_layer() {
 
 #[test]
 fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let mut violations = Vec::new();
     for (f, code) in library_code(root) {
         for (n, line) in code.lines().enumerate() {
@@ -173,7 +174,7 @@ fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
 /// service no study or tool code (a statistic both need lives in the core: `crate::stats`).
 #[test]
 fn layers_import_downwards() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = repo();
     let rules: &[(&[&str], &[&str])] = &[
         (
             CORE,
@@ -217,4 +218,51 @@ fn layers_import_downwards() {
         "imports against the layers:\n{}",
         violations.join("\n")
     );
+}
+
+/// The persisted cases of the property tests are replayed only from where proptest reads them: with
+/// `tests/it/main.rs` beside the modules, `tests/proptest-regressions/<module>.txt` (its default,
+/// `SourceParallel`). A file anywhere else under `tests/` would silently replay nothing.
+#[test]
+fn persisted_property_cases_are_where_proptest_reads_them() {
+    let tests = repo().join("tests");
+    let persisted = tests.join("proptest-regressions");
+    let mut files = Vec::new();
+    let mut stray = Vec::new();
+    let mut walk = vec![tests.clone()];
+    while let Some(dir) = walk.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk.push(path);
+            } else if path.starts_with(&persisted) {
+                files.push(path);
+            } else if path.to_string_lossy().contains("proptest-regressions") {
+                stray.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(
+        stray.is_empty(),
+        "persisted proptest cases proptest does not read: {stray:?}"
+    );
+    assert!(
+        !files.is_empty(),
+        "{} holds the persisted cases",
+        persisted.display()
+    );
+    for f in files {
+        let module = tests
+            .join("it")
+            .join(f.file_stem().unwrap())
+            .with_extension("rs");
+        let source = std::fs::read_to_string(&module)
+            .unwrap_or_else(|e| panic!("{}: no module {} ({e})", f.display(), module.display()));
+        assert!(
+            f.extension().is_some_and(|e| e == "txt") && source.contains("proptest!"),
+            "{}: not the persisted cases of the property tests of {}",
+            f.display(),
+            module.display()
+        );
+    }
 }

@@ -2,8 +2,9 @@
 //! tilt and do correct the heading, a disturbed magnetometer is detected and held off, a large
 //! accelerometer norm deviation gates the accelerometer, and the service's config reads the models
 //! and refuses wrong ones. (These are the models of named sensors on `P/V/vectors`; raw samples on
-//! `P/V/imu` go through `crate::ahrs`, tested in `tests/ahrs.rs`.)
+//! `P/V/imu` go through `crate::ahrs`, tested in `tests/it/ahrs.rs`.)
 
+use crate::common::estimates;
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
 use attitude_service::sensors::imu::{FieldModel, GravityModel, SensorModel, SensorState, Verdict};
@@ -11,8 +12,7 @@ use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config;
-use attitude_service::service::vehicle::{Event, VehicleState};
-use attitude_service::wire::EstimateMsg;
+use attitude_service::service::vehicle::VehicleState;
 use nalgebra::Vector3;
 
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
@@ -273,17 +273,6 @@ fn the_sensor_models_load_and_wrong_sensor_options_are_refused() {
     ] {
         assert!(config::parse(bad, "test").is_err(), "accepted {bad}");
     }
-}
-
-/// The estimates among `events`, as the service publishes them.
-fn estimates(events: &[Event]) -> Vec<EstimateMsg> {
-    events
-        .iter()
-        .filter_map(|e| match e {
-            Event::Estimate(p) => Some(EstimateMsg::from(p)),
-            _ => None,
-        })
-        .collect()
 }
 
 /// Through one vehicle with the preset: raw readings are modelled, a disturbed magnetometer is

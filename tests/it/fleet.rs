@@ -3,6 +3,7 @@
 //! two engines of a dynamic fleet fed the same inputs (as zenoh would) split the vehicles, and when one
 //! member goes the other takes its vehicles over with no vector set left without an estimate.
 
+use crate::common::{collecting_engine, repo, service_config, wait_until, Outputs};
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
 use attitude_service::sensors::GyroNoise;
@@ -13,8 +14,8 @@ use attitude_service::service::vehicle::{TakeoverSeed, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix6, Vector3};
 use std::collections::{BTreeMap, BTreeSet};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::Arc;
+use std::time::Duration;
 
 /// A correlated, positive-definite covariance of `[δα; δβ]`.
 fn correlated() -> Matrix6<f64> {
@@ -99,8 +100,11 @@ fn filters_start_with_the_full_covariance() {
 #[test]
 fn a_vehicle_taken_over_continues_from_the_estimate() {
     let base = ServiceConfig::default().default_filter;
-    let mut e: EstimateMsg =
-        serde_json::from_str(include_str!("../proto/examples/estimate-qpf.json")).unwrap();
+    let mut e: EstimateMsg = serde_json::from_str(include_str!(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/proto/examples/estimate-qpf.json"
+    )))
+    .unwrap();
     e.diagnostics.particles = Some(500);
     let seed = TakeoverSeed::try_from(&e).unwrap();
     let state = VehicleState::take_over("sc1", &base, &seed, None).unwrap();
@@ -131,8 +135,6 @@ fn a_vehicle_taken_over_continues_from_the_estimate() {
     assert!(TakeoverSeed::try_from(&broken).is_err());
 }
 
-type Outputs = Arc<Mutex<Vec<(String, Vec<u8>)>>>;
-
 fn member(
     name: &str,
 ) -> (
@@ -140,20 +142,11 @@ fn member(
     attitude_service::service::engine::EngineThreads,
     Outputs,
 ) {
-    let mut config = parse(
+    let mut config = service_config(
         r#"{ service: { key_prefix: "t", filter: { kind: "mekf" }, time: { reorder_window_s: 0.0 } } }"#,
-        "test",
-    )
-    .unwrap()
-    .service;
+    );
     override_fleet(&mut config, true, None, Some(name.into()), None).unwrap();
-    let out: Outputs = Arc::default();
-    let sink = {
-        let out = out.clone();
-        Arc::new(move |k: &str, p: Vec<u8>| out.lock().unwrap().push((k.to_string(), p)))
-    };
-    let (engine, threads) = Engine::start(config, sink).unwrap();
-    (engine, threads, out)
+    collecting_engine(config)
 }
 
 fn star_set(t: f64, q: &Quaternion) -> String {
@@ -169,14 +162,6 @@ fn star_set(t: f64, q: &Quaternion) -> String {
         })
         .collect();
     format!(r#"{{"t":{t},"obs":[{}]}}"#, obs.join(","))
-}
-
-fn wait(what: &str, mut done: impl FnMut() -> bool) {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !done() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(5));
-    }
 }
 
 /// Estimate times published per vehicle.
@@ -235,13 +220,18 @@ fn a_member_takes_over_without_losing_a_set() {
     };
     let mut relayed = 0;
     feed(0, 10, true);
-    wait("both members to publish 10 sets per vehicle", || {
-        relay(&mut relayed);
-        let (pa, pb) = (published(&out_a), published(&out_b));
-        vehicles
-            .iter()
-            .all(|v| pa.get(v).map_or(0, |t| t.len()) + pb.get(v).map_or(0, |t| t.len()) == 10)
-    });
+    wait_until(
+        "both members to publish 10 sets per vehicle",
+        Duration::from_secs(20),
+        || {
+            relay(&mut relayed);
+            let (pa, pb) = (published(&out_a), published(&out_b));
+            vehicles
+                .iter()
+                .all(|v| pa.get(v).map_or(0, |t| t.len()) + pb.get(v).map_or(0, |t| t.len()) == 10)
+        },
+    )
+    .unwrap();
     // Each vehicle was processed by its owner only.
     let pa = published(&out_a);
     for v in &vehicles {
@@ -255,13 +245,18 @@ fn a_member_takes_over_without_losing_a_set() {
     std::thread::sleep(Duration::from_millis(100));
     tb.members.send(["b".to_string()].into()).unwrap();
     feed(13, 15, false);
-    wait("b to publish every set of every vehicle", || {
-        let pb = published(&out_b);
-        of_a.iter().all(|v| pb.get(*v).map_or(0, |t| t.len()) == 5)
-            && vehicles
-                .iter()
-                .all(|v| pb.get(v).is_some_and(|t| t.last() == Some(&14.0)))
-    });
+    wait_until(
+        "b to publish every set of every vehicle",
+        Duration::from_secs(20),
+        || {
+            let pb = published(&out_b);
+            of_a.iter().all(|v| pb.get(*v).map_or(0, |t| t.len()) == 5)
+                && vehicles
+                    .iter()
+                    .all(|v| pb.get(v).is_some_and(|t| t.last() == Some(&14.0)))
+        },
+    )
+    .unwrap();
     let pb = published(&out_b);
     for v in &of_a {
         // Sets 10..15 published by b, after a's 0..10: none lost, none repeated.
@@ -285,7 +280,7 @@ fn a_member_takes_over_without_losing_a_set() {
 
 #[test]
 fn the_shipped_fleet_instance_configuration_is_valid() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/fleet/instance.json5");
+    let path = repo().join("config/fleet/instance.json5");
     let file = attitude_service::service::config::load(&path).unwrap();
     let f = &file.service.fleet;
     assert_eq!(f.mode, attitude_service::service::fleet::FleetMode::Dynamic);

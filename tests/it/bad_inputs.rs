@@ -17,16 +17,15 @@
 //! the row asserts exactly that (proto/BAD_INPUTS.md). There is no expected-failure marker: a row the
 //! service gets wrong fails this test.
 
-use attitude_service::service::config::parse;
-use attitude_service::service::engine::{Engine, EngineThreads, Inbound, Sink};
+use crate::common::{collecting_engine, proto_dir, service_config, wait_until, Outputs};
+use attitude_service::service::engine::{Engine, EngineThreads, Inbound};
 use attitude_service::wire::{
     decode_one, ErrorMsg, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
 };
 use serde::Deserialize;
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Key prefix of the engines of this test.
@@ -64,10 +63,6 @@ const QUEUED_CODES: &[RejectCode] = &[
     RejectCode::NotInitialized,
     RejectCode::FilterError,
 ];
-
-fn proto_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("proto")
-}
 
 /// One row of `proto/bad-inputs.json`.
 #[derive(Clone, Debug, Deserialize)]
@@ -340,8 +335,6 @@ fn every_input_code_has_a_row() {
 // ------------------------------------------------------------------------------------------------
 // (c) every row against an engine
 
-type Outputs = Arc<Mutex<Vec<(String, Vec<u8>)>>>;
-
 /// An engine with a sink that collects `(key, payload)`.
 struct Run {
     engine: Arc<Engine>,
@@ -361,15 +354,7 @@ impl Run {
             }
         })
         .to_string();
-        let config = parse(&text, "bad-inputs")
-            .expect("the row's config")
-            .service;
-        let out: Outputs = Arc::new(Mutex::new(Vec::new()));
-        let o = out.clone();
-        let sink: Sink = Arc::new(move |key: &str, payload: Vec<u8>| {
-            o.lock().unwrap().push((key.to_string(), payload))
-        });
-        let (engine, threads) = Engine::start(config, sink).expect("engine starts");
+        let (engine, threads, out) = collecting_engine(service_config(&text));
         Run {
             engine,
             threads: Some(threads),
@@ -403,14 +388,7 @@ impl Run {
     }
 
     fn wait(&self, timeout: Duration, mut done: impl FnMut(&Run) -> bool) -> bool {
-        let deadline = Instant::now() + timeout;
-        while !done(self) {
-            if Instant::now() > deadline {
-                return false;
-            }
-            std::thread::sleep(Duration::from_micros(200));
-        }
-        true
+        wait_until("a condition of the bad-input run", timeout, || done(self)).is_ok()
     }
 
     fn estimate(&self) -> Option<EstimateMsg> {
@@ -502,23 +480,21 @@ impl Run {
                 decode_one(payload, &self.engine.config.limits.input)?
             };
             let mut rx = self.engine.request_reset(v, req)?;
-            let deadline = Instant::now() + Duration::from_secs(10);
-            loop {
+            let mut answer = None;
+            let _ = wait_until("the reset's answer", Duration::from_secs(10), || {
                 match rx.try_recv() {
-                    Ok(r) => return r,
-                    Err(tokio::sync::oneshot::error::TryRecvError::Empty)
-                        if Instant::now() < deadline =>
-                    {
-                        std::thread::sleep(Duration::from_micros(200))
-                    }
-                    Err(_) => {
-                        return Err(Rejection::new(
-                            RejectCode::Internal,
-                            "no answer to the reset",
-                        ))
-                    }
+                    Ok(r) => answer = Some(r),
+                    Err(tokio::sync::oneshot::error::TryRecvError::Empty) => return false,
+                    Err(tokio::sync::oneshot::error::TryRecvError::Closed) => {}
                 }
-            }
+                true
+            });
+            answer.unwrap_or_else(|| {
+                Err(Rejection::new(
+                    RejectCode::Internal,
+                    "no answer to the reset",
+                ))
+            })
         })();
         if let Err(r) = &result {
             self.engine.counters.reject(r.code);

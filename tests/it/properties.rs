@@ -1,20 +1,10 @@
 //! The identities of docs/algorithms.md §1 and the invariances of the attitude math, as property
 //! tests.
 
+use crate::common::unit_quaternion;
 use attitude_service::attitude::{weighted_average, Grp, Quaternion};
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
-
-fn unit_quaternion() -> impl Strategy<Value = Quaternion> {
-    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_filter_map(
-        "non-degenerate",
-        |(x, y, z, w)| {
-            Quaternion::new(x, y, z, w)
-                .normalized()
-                .filter(|_| (x * x + y * y + z * z + w * w) > 1e-3)
-        },
-    )
-}
 
 fn rotation_vector(max_angle: f64) -> impl Strategy<Value = Vector3<f64>> {
     (

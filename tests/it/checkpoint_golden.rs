@@ -5,18 +5,19 @@
 //! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`, which
 //! reads the format-3 files kept here), and add the new version's files with
 //!
-//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test checkpoint_golden -- --test-threads=1
+//!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test it checkpoint_golden:: -- --test-threads=1
 //!
 //! Two vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
 //! low-passes, rest detector and field model) and an MEKF fed gyro and named vector sensors (gate
 //! counts, the sensor models' state).
 
+use crate::common::{imu_preset, repo, scratch_dir};
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::FilterState;
 use attitude_service::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
-use attitude_service::service::config::{self, Policy, VehicleFilterConfig};
+use attitude_service::service::config::{self, Policy};
 use attitude_service::service::persist::{self, SavedCounters};
 use attitude_service::service::vehicle::{Event, VehicleState};
 use nalgebra::Vector3;
@@ -28,12 +29,7 @@ const VERSION: u32 = 4;
 const OLD_VERSION: u32 = 3;
 
 fn dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/checkpoints")
-}
-
-fn preset() -> (VehicleFilterConfig, Policy) {
-    let c = config::parse(include_str!("../config/imu.json5"), "config/imu.json5").unwrap();
-    (c.service.default_filter.clone(), c.service.policy.clone())
+    repo().join("tests/data/checkpoints")
 }
 
 fn truth(t: f64) -> Quaternion {
@@ -95,7 +91,7 @@ fn vectors(k: usize) -> Measurement {
 
 /// The vehicle of golden file `name` after its first `n` inputs, and the inputs after them.
 fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
-    let (mut f, mut p) = preset();
+    let (mut f, mut p) = imu_preset();
     let inputs: Vec<Measurement> = match name {
         "qpf-imu" => {
             f.filter.spec = "qpf:average".parse().unwrap();
@@ -104,7 +100,7 @@ fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
         }
         "mekf-vectors" => {
             // The defaults, with an accelerometer and a magnetometer modelled (their state is saved).
-            let text = include_str!("../config/default.json5").replace(
+            let text = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/config/default.json5")).replace(
                 "    sensors: {},",
                 r#"    sensors: { acc: { kind: "gravity" }, mag: { kind: "field", heading_only: true } },"#,
             );
@@ -169,7 +165,7 @@ fn golden_checkpoints_read_back_and_write_back_the_same() {
         let c = persist::decode(&bytes).unwrap_or_else(|e| {
             panic!(
                 "{}: {e}. The checkpoint format changed: bump persist::VERSION and add this \
-                 version's golden files (see the header of tests/checkpoint_golden.rs)",
+                 version's golden files (see the header of tests/it/checkpoint_golden.rs)",
                 path.display()
             )
         });
@@ -230,7 +226,7 @@ fn checkpoints_of_another_version_are_refused() {
     );
     // The real files of the previous format, through the directory loader: reported with the reason
     // and skipped, the good one restored.
-    let tmp = std::env::temp_dir().join(format!("golden-{}", std::process::id()));
+    let tmp = scratch_dir("golden");
     std::fs::create_dir_all(&tmp).unwrap();
     for name in NAMES {
         let old = std::fs::read(dir().join(format!("v{OLD_VERSION}-{name}.ckpt"))).unwrap();

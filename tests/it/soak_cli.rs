@@ -1,13 +1,13 @@
 //! The `soak` command end to end, briefly: the real binary starts the real service as its child,
 //! streams for 12 s and reports one JSON object.
 
-use std::process::Command;
+use crate::common::service_bin;
 use std::time::{Duration, Instant};
 
 #[test]
 fn a_short_soak_reports_every_field_and_receives_estimates() {
     let started = Instant::now();
-    let output = Command::new(env!("CARGO_BIN_EXE_attitude-service"))
+    let output = service_bin()
         .args([
             "soak",
             "--vehicles",

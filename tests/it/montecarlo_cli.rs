@@ -1,24 +1,11 @@
 //! The `montecarlo` command end to end: the real binary, real files.
 
+use crate::common::{assert_nees_with_power, scratch_dir, service_bin, CHI2_120};
 use attitude_service::study::FilterSummary;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_attitude-service"))
-}
-
-fn out_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "attitude-service-test-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+use std::path::Path;
 
 fn run(args: &[&str], out: &Path) -> Vec<FilterSummary> {
-    let output = bin()
+    let output = service_bin()
         .arg("montecarlo")
         .args(args)
         .arg("--out")
@@ -41,7 +28,7 @@ fn run(args: &[&str], out: &Path) -> Vec<FilterSummary> {
 fn anees_bounds(runs: usize) -> (f64, f64) {
     let (lo, hi) = match runs {
         20 => (30.340, 102.695),
-        40 => (75.467, 177.603),
+        40 => CHI2_120,
         _ => panic!("no χ² quantiles for {runs} runs"),
     };
     (lo / runs as f64, hi / runs as f64)
@@ -64,18 +51,7 @@ fn rms_bounds(k: usize) -> (f64, f64) {
 /// The ANEES of `s` inside its bound, and the same runs with the covariance scaled by 1/2.25 or 2.25
 /// (σ 1.5× too small or too large: the ANEES scales exactly by 2.25 or 1/2.25) outside it.
 fn assert_anees(what: &str, anees: f64, runs: usize) {
-    let (lo, hi) = anees_bounds(runs);
-    assert!(
-        (lo..=hi).contains(&anees),
-        "{what}: ANEES {anees} outside [{lo}, {hi}]"
-    );
-    for scale in [2.25, 1.0 / 2.25] {
-        assert!(
-            !(lo..=hi).contains(&(anees * scale)),
-            "{what}: a covariance scaled by 1/{scale} (ANEES {}) would pass [{lo}, {hi}]",
-            anees * scale
-        );
-    }
+    assert_nees_with_power(&format!("{what}: ANEES"), anees, anees_bounds(runs));
 }
 
 /// Each axis' RMS/PCRB inside `centre · rms_bounds(k)`, and an RMS 1.5× larger or smaller outside.
@@ -113,7 +89,7 @@ fn assert_rms(what: &str, ratios: [f64; 3], centre: [f64; 3], k: [usize; 3]) {
 /// Measured: RMS/PCRB 0.990, 1.013, 0.989; ANEES 2.986 (× 2.25: 6.72, ÷ 2.25: 1.327).
 #[test]
 fn star_tracker_mekf_reaches_the_bound_with_honest_covariance() {
-    let out = out_dir("star-tracker");
+    let out = scratch_dir("star-tracker");
     let summary = run(
         &[
             "--scenario",
@@ -192,7 +168,11 @@ fn same_seed_same_summary_whatever_the_thread_count() {
         "--duration",
         "3600",
     ];
-    let (a_dir, b_dir, c_dir) = (out_dir("det-a"), out_dir("det-b"), out_dir("det-c"));
+    let (a_dir, b_dir, c_dir) = (
+        scratch_dir("det-a"),
+        scratch_dir("det-b"),
+        scratch_dir("det-c"),
+    );
     let a = strip(run(&[&args[..], &["--jobs", "1"]].concat(), &a_dir));
     let b = strip(run(&[&args[..], &["--jobs", "2"]].concat(), &b_dir));
     assert_eq!(a, b);
@@ -219,8 +199,8 @@ fn bad_arguments_are_refused_with_a_reason() {
             "duration",
         ),
     ] {
-        let out = out_dir("bad");
-        let output = bin()
+        let out = scratch_dir("bad");
+        let output = service_bin()
             .arg("montecarlo")
             .args(&args)
             .arg("--out")
@@ -235,7 +215,7 @@ fn bad_arguments_are_refused_with_a_reason() {
 
 #[test]
 fn scenarios_command_documents_every_scenario() {
-    let output = bin().arg("scenarios").output().unwrap();
+    let output = service_bin().arg("scenarios").output().unwrap();
     assert!(output.status.success());
     let text = String::from_utf8_lossy(&output.stdout);
     for name in ["star-tracker", "magnetometer-leo", "lost-in-space"] {
@@ -265,7 +245,7 @@ fn particle_filter_studies_are_deterministic_too() {
         "--particles",
         "300",
     ];
-    let (a_dir, b_dir) = (out_dir("qpf-det-a"), out_dir("qpf-det-b"));
+    let (a_dir, b_dir) = (scratch_dir("qpf-det-a"), scratch_dir("qpf-det-b"));
     let a = strip(run(&[&args[..], &["--jobs", "1"]].concat(), &a_dir));
     let b = strip(run(&[&args[..], &["--jobs", "2"]].concat(), &b_dir));
     assert_eq!(a, b);
@@ -284,8 +264,8 @@ fn particle_filter_studies_are_deterministic_too() {
 
 #[test]
 fn sweep_reports_one_row_per_particle_count() {
-    let out = out_dir("sweep");
-    let output = bin()
+    let out = scratch_dir("sweep");
+    let output = service_bin()
         .args([
             "sweep",
             "--scenario",
@@ -341,7 +321,7 @@ fn sweep_reports_one_row_per_particle_count() {
 /// 1.5× too small or too large in σ.
 #[test]
 fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
-    let out = out_dir("qpf-mag");
+    let out = scratch_dir("qpf-mag");
     let mag = run(
         &[
             "--scenario",
@@ -375,7 +355,7 @@ fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
         mekf.converged_runs < qpf.converged_runs,
         "the MEKF baseline is worse here: {mekf:?}"
     );
-    let out2 = out_dir("qpf-st");
+    let out2 = scratch_dir("qpf-st");
     let st = run(
         &[
             "--scenario",
@@ -411,7 +391,7 @@ fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
 
 #[test]
 fn bench_reports_every_filter_as_json() {
-    let output = bin()
+    let output = service_bin()
         .args(["bench", "--json", "--seconds", "0.05", "--particles", "200"])
         .output()
         .unwrap();

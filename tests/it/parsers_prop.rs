@@ -20,13 +20,14 @@
 //! Reset requests are also applied to a fresh and to a tracking vehicle (`VehicleState::on_reset`):
 //! accepted, the vehicle's estimate is healthy; refused, the vehicle is unchanged.
 //!
-//! Run in release: `cargo test --release --test parsers_prop` (about 5 s of tests).
+//! Run in release: `cargo test --release --test it parsers_prop::` (about 5 s of tests).
 //!
 //! What these properties found is marked `FINDING` where it was found; every finding is fixed and its
 //! test passes. FINDING 1 is the documented contract of `Driver::process` (a refused update keeps the
 //! propagation to its time), which every filter test asserts, `filters_unrestricted` with vector sets
 //! ahead of the filter's time.
 
+use crate::common::{default_policy as policy, unit_quaternion};
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, validate, Estimate, FilterConfig, InitialState};
 use attitude_service::sensors::{
@@ -1204,17 +1205,6 @@ fn filter_config(spec: &str) -> FilterConfig {
     c
 }
 
-fn unit_quaternion() -> impl Strategy<Value = Quaternion> {
-    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_filter_map(
-        "non-degenerate",
-        |(x, y, z, w)| {
-            Quaternion::new(x, y, z, w)
-                .normalized()
-                .filter(|_| (x * x + y * y + z * z + w * w) > 1e-3)
-        },
-    )
-}
-
 /// With `restrict.vector_times` (see [`Restrict`]) the start time is always given.
 fn initial_state(restrict: Restrict) -> impl Strategy<Value = InitialState> {
     let t0 = prop::sample::select(vec![0.0, 100.0, -5.0]);
@@ -1760,9 +1750,4 @@ fn a_huge_gyro_rate_does_not_wedge_the_filter() {
             "{spec}: the 1e300 rad/s sample was accepted ({huge:?}), then every later sample is refused: {next:?}, {later:?}"
         );
     }
-}
-
-/// The service's default policy (reorder window, gate, health).
-fn policy() -> attitude_service::service::config::Policy {
-    attitude_service::service::config::ServiceConfig::default().policy
 }

@@ -1,0 +1,25 @@
+//! The integration tests of attitude-service, in one test binary (`cargo test --release --test it`):
+//! a module per subject, run by name (`cargo test --release --test it ahrs::`).
+//!
+//! The persisted cases of the property tests are in `tests/proptest-regressions/<module>.txt`, where
+//! proptest looks for them by default (beside the folder of this `main.rs`).
+
+mod common;
+
+mod ahrs;
+mod bad_inputs;
+mod checkpoint_golden;
+mod conventions;
+mod fleet;
+mod imu_models;
+mod mekf;
+mod montecarlo_cli;
+mod parsers_prop;
+mod properties;
+mod proto;
+mod qpf;
+mod robustness;
+mod service;
+mod soak_cli;
+mod tidy;
+mod usque;
