@@ -332,12 +332,14 @@ impl Qpf {
         (q, Vector3::new(mean[3], mean[4], mean[5]), j * cov * j)
     }
 
-    /// One update, rolled back on failure: the weights are restored from the backup, and the
-    /// particles too when a resampling moved them.
+    /// One update, rolled back on failure: the weights are restored from the backup, the particles
+    /// too when a resampling moved them, and the generator.
     pub(super) fn update_with(&mut self, evidence: &Evidence<'_>) -> Result<(), FilterError> {
         self.backup.w.copy_from_slice(&self.cloud.w);
         self.backup_has_particles = false;
-        let saved = (self.q_prop, self.diagnostics.clone());
+        // (The generator too: a refused update that resampled must not change what the next step
+        // draws.)
+        let saved = (self.q_prop, self.diagnostics.clone(), self.rng.clone());
         let result = self.try_update(evidence);
         if result.is_err() {
             if self.backup_has_particles {
@@ -345,8 +347,7 @@ impl Qpf {
             } else {
                 self.cloud.w.copy_from_slice(&self.backup.w);
             }
-            self.q_prop = saved.0;
-            self.diagnostics = saved.1;
+            (self.q_prop, self.diagnostics, self.rng) = saved;
         }
         result
     }
