@@ -4,9 +4,10 @@
 //! Default: the steady state of `attitude-service bench` (three star vectors per step). With `lost`:
 //! lost in space from a single vector: one field-like direction per second (σ = 0.01 rad, its reference
 //! turning as a field along an orbit) from a uniformly random start, so that the first steps reweigh a
-//! diffuse cloud in many progressive-correction stages, resample and regularise. `threads` caps the threads per pass (0: one per core from 16 384
-//! particles on). Prints the wall time per step and the process's CPU time over its wall time
-//! (`/proc/self/stat`): about 2 when a pass runs on both cores of this machine.
+//! diffuse cloud in many progressive-correction stages, resample and regularise. `threads` caps the
+//! threads per pass (0: one per core from 65 536 particles on). Prints the wall time per step and the
+//! process's CPU time over its wall time (`/proc/self/stat`): about 2 when a pass runs on both cores
+//! of this machine, and below 1 when other processes take the cores.
 
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::qpf::set_max_threads;
@@ -26,7 +27,12 @@ fn cpu_s() -> f64 {
         .unwrap_or("")
         .split_whitespace()
         .collect();
-    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
     // Fields 14 and 15 of stat (utime, stime), counted after the command's closing parenthesis.
     (ticks(11) + ticks(12)) / 100.0
 }
@@ -77,11 +83,17 @@ fn main() {
                     aspect: Aspect::Full,
                 }],
             };
-            f.process(&Measurement::Vectors(set)).expect("a vector step");
+            f.process(&Measurement::Vectors(set))
+                .expect("a vector step");
             stages += f.estimate().diagnostics.pc_stages.unwrap_or(0) as u64;
         }
         let d = f.estimate().diagnostics;
-        (start.elapsed().as_secs_f64(), cpu_s() - cpu0, stages, d.resamples)
+        (
+            start.elapsed().as_secs_f64(),
+            cpu_s() - cpu0,
+            stages,
+            d.resamples,
+        )
     } else {
         let mut s = SteadyState::new(&spec, particles).expect("a valid filter");
         let (start, cpu0) = (std::time::Instant::now(), cpu_s());
@@ -91,7 +103,12 @@ fn main() {
             stages += s.filter.estimate().diagnostics.pc_stages.unwrap_or(0) as u64;
         }
         let d = s.filter.estimate().diagnostics;
-        (start.elapsed().as_secs_f64(), cpu_s() - cpu0, stages, d.resamples)
+        (
+            start.elapsed().as_secs_f64(),
+            cpu_s() - cpu0,
+            stages,
+            d.resamples,
+        )
     };
     let per = wall / steps as f64;
     println!(

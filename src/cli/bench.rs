@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// machine has). The estimates are the same bits with each.
     #[arg(long)]
     isa: Option<Isa>,
-    /// At most this many threads per particle-filter pass (default: one per core from 16 384
+    /// At most this many threads per particle-filter pass (default: one per core from 65 536
     /// particles on, else one).
     #[arg(long)]
     threads: Option<usize>,

@@ -36,10 +36,10 @@ mod tests;
 mod update;
 
 pub use cloud::Cloud;
-pub use par::{auto_threads, set_max_threads};
 use cloud::*;
 use options::*;
 pub use options::{Kernel, QpfOptions};
+pub use par::{auto_threads, set_max_threads};
 use update::Evidence;
 
 use super::{

@@ -1,13 +1,14 @@
 //! Blocks of particles on one or more threads. The cloud is cut into blocks of [`BLOCK`] particles
-//! whatever the thread count; a thread takes a run of whole blocks, and the blocks' sums are added in
-//! block order afterwards, so the result has the same bits on one thread or many.
+//! whatever the thread count; threads take whole blocks, and the blocks' sums are added in block order
+//! afterwards, so the result has the same bits on one thread or many.
 
 use super::kernels::BLOCK;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
-/// Below this many particles a pass stays on the calling thread (a thread costs ~20 µs to start).
-pub(super) const PARALLEL_FROM: usize = 16 * BLOCK;
+/// Below this many particles a pass stays on the calling thread: a thread costs ~20 µs to start, and
+/// on a busy machine a helper may wait milliseconds for a core, which only a long pass can afford.
+pub(super) const PARALLEL_FROM: usize = 64 * BLOCK;
 
 /// Columns that can be cut at a particle index.
 pub(super) trait Split: Sized + Send {
@@ -97,7 +98,9 @@ fn sequential<V: Split, P>(
 }
 
 /// `f(k, block k)` for every block of `view` (`len` particles) on up to `threads` threads, `fold` of
-/// the results in block order.
+/// the results in block order. The blocks are handed out one at a time from a queue: a thread that
+/// the machine's load keeps from running leaves its share to the others instead of holding the pass
+/// up (this thread takes blocks too).
 pub(super) fn blocks<V: Split, P: Send>(
     threads: usize,
     len: usize,
@@ -111,32 +114,41 @@ pub(super) fn blocks<V: Split, P: Send>(
         sequential(view, len, 0, &f, &mut fold);
         return;
     }
-    let per = n_blocks.div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|s| {
-        // This thread takes the first run of blocks, spawned threads the others.
-        let mine = (per * BLOCK).min(len);
-        let (head, mut rest) = view.split_at(mine);
-        let mut handles = Vec::with_capacity(threads - 1);
-        let mut start = mine;
-        while start < len {
-            let m = (per * BLOCK).min(len - start);
-            let (part, tail) = rest.split_at(m);
-            rest = tail;
-            let first = (start / BLOCK) as u64;
-            handles.push(s.spawn(move || {
-                let mut out = Vec::with_capacity(per);
-                sequential(part, m, first, f, &mut |p| out.push(p));
-                out
-            }));
-            start += m;
+    let mut parts = Vec::with_capacity(n_blocks);
+    let (mut rest, mut start) = (view, 0);
+    while start < len {
+        let m = BLOCK.min(len - start);
+        let (head, tail) = rest.split_at(m);
+        parts.push(head);
+        rest = tail;
+        start += m;
+    }
+    let queue = Mutex::new(parts.into_iter().enumerate());
+    let work = || {
+        let mut done = Vec::new();
+        loop {
+            let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+            match next {
+                Some((k, part)) => done.push((k, f(k as u64, part))),
+                None => return done,
+            }
         }
-        sequential(head, mine, 0, f, &mut fold);
-        for h in handles {
+    };
+    let mut results: Vec<Option<P>> = (0..n_blocks).map(|_| None).collect();
+    std::thread::scope(|s| {
+        let helpers: Vec<_> = (1..threads).map(|_| s.spawn(work)).collect();
+        let mut all = work();
+        for h in helpers {
             match h.join() {
-                Ok(results) => results.into_iter().for_each(&mut fold),
+                Ok(done) => all.extend(done),
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         }
+        for (k, p) in all {
+            results[k] = Some(p);
+        }
     });
+    for p in results.into_iter().flatten() {
+        fold(p);
+    }
 }
