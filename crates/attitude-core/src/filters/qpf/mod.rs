@@ -65,7 +65,7 @@ pub struct Qpf {
     gyro_errors: GyroErrors,
     cloud: Cloud,
     /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update
-    /// back: its weights are saved at the start of every update, its particles only before the
+    /// back: its weights are saved at the start of every update, its particles are swapped in at the
     /// update's first resampling (until then only the weights change).
     /// (Working buffers are not part of a checkpoint: they are sized again on a restore.)
     scratch: Cloud,

@@ -192,22 +192,6 @@ impl Qpf {
     /// which keeps the cloud's mean in expectation and (up to the inflation) its covariance; then the
     /// cloud is shifted so that its mean is exactly `x̄`.
     pub(super) fn resample_and_regularize(&mut self, fid: &Quaternion, st: &Stats) {
-        if !self.backup_has_particles {
-            // Until now only the weights changed: the particles of the backup are taken here.
-            let (b, c) = (&mut self.backup, &self.cloud);
-            for (to, from) in [
-                (&mut b.qx, &c.qx),
-                (&mut b.qy, &c.qy),
-                (&mut b.qz, &c.qz),
-                (&mut b.qw, &c.qw),
-                (&mut b.bx, &c.bx),
-                (&mut b.by, &c.by),
-                (&mut b.bz, &c.bz),
-            ] {
-                to.copy_from_slice(from);
-            }
-            self.backup_has_particles = true;
-        }
         let n = self.cloud.len();
         // Systematic resampling: one uniform offset, O(N), in order.
         let step = 1.0 / n as f64;
@@ -312,6 +296,23 @@ impl Qpf {
             |()| {},
         );
         std::mem::swap(&mut self.cloud, &mut self.scratch);
+        if !self.backup_has_particles {
+            // Until now only the weights changed: the particles the update started from are now in
+            // the scratch cloud, and become the backup's by a swap of columns (no copy).
+            let (b, s) = (&mut self.backup, &mut self.scratch);
+            for (x, y) in [
+                (&mut b.qx, &mut s.qx),
+                (&mut b.qy, &mut s.qy),
+                (&mut b.qz, &mut s.qz),
+                (&mut b.qw, &mut s.qw),
+                (&mut b.bx, &mut s.bx),
+                (&mut b.by, &mut s.by),
+                (&mut b.bz, &mut s.bz),
+            ] {
+                std::mem::swap(x, y);
+            }
+            self.backup_has_particles = true;
+        }
         self.cloud.w.fill(step);
         *self.diagnostics.resamples.get_or_insert(0) += 1;
     }
