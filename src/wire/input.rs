@@ -277,7 +277,7 @@ impl VectorsMsg {
 // twice) and in the field readers below; `refused` turns serde's error into the contract's code.
 
 /// The message of a `null` where a number belongs, which `shape_code` recognises.
-const NULL_NUMBER: &str = "a number is null (how many encoders write NaN)";
+pub(super) const NULL_NUMBER: &str = "a number is null (how many encoders write NaN)";
 
 /// Checks size and UTF-8: the first steps of every payload.
 fn text_of<'a>(payload: &'a [u8], limits: &InputLimits) -> Result<&'a str, Rejection> {

@@ -98,7 +98,9 @@ mod tests {
                 r#"{"q": {"w": 1, "x": 0, "y": 0, "z": null}}"#,
                 RejectCode::NonFinite,
             ),
-            (r#"{"sigma_deg": null}"#, RejectCode::BadRequest),
+            // A 1σ is a number (or three): null is a null number (proto/README.md: `non_finite`
+            // where a number belongs; the old value-first decoder said bad_request here).
+            (r#"{"sigma_deg": null}"#, RejectCode::NonFinite),
             (r#"{"sigma_deg": [1, null, 1]}"#, RejectCode::NonFinite),
             (r#"[{}]"#, RejectCode::BadRequest),
         ] {

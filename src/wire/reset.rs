@@ -39,6 +39,10 @@ impl<'de> Deserialize<'de> for PerAxis {
             fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<PerAxis, A::Error> {
                 Three.visit_seq(seq).map(PerAxis::Three)
             }
+            // A 1σ is a number first: null is a null number (`non_finite`), as everywhere.
+            fn visit_unit<E: de::Error>(self) -> Result<PerAxis, E> {
+                Err(E::custom(super::input::NULL_NUMBER))
+            }
         }
         d.deserialize_any(OneOrThree)
     }

@@ -185,8 +185,11 @@ def test_invalid_reset_is_refused_and_changes_nothing(client, request_, code):
         (b"{not json", "invalid_json"),
         (b"\xff\xfe", "invalid_utf8"),
         (b'{"sigma_deg": null, "q": {"w": 1, "x": 0, "y": 0, "z": null}}', "non_finite"),
+        (b'{"sigma_deg": null}', "non_finite"),
+        (b'{"bias_sigma": [1e-5, null, 1e-5]}', "non_finite"),
+        (b'{"q": {"w": 1, "x": 0, "y": 0, "z": null}}', "non_finite"),
     ],
-    ids=["invalid-json", "invalid-utf8", "null-in-q"],
+    ids=["invalid-json", "invalid-utf8", "null-in-q", "null-sigma", "null-in-bias-sigma", "null-q-component"],
 )
 def test_malformed_reset_payload_codes(client, payload, code):
     """proto/README.md, Errors: `invalid_json`, `invalid_utf8`, `non_finite` are error replies of reset too."""
