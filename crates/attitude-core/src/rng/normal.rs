@@ -371,6 +371,23 @@ mod tests {
     }
 
     #[test]
+    fn every_instruction_set_draws_the_same_normals() {
+        use crate::simd::Isa;
+        let mut base = vec![[0.0; LANES]; 1000];
+        fill_normals(Isa::Portable, 11, 2, &mut base);
+        for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+            let mut rows = vec![[0.0; LANES]; 1000];
+            fill_normals(isa, 11, 2, &mut rows);
+            let same = rows
+                .iter()
+                .flatten()
+                .zip(base.iter().flatten())
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{isa:?}");
+        }
+    }
+
+    #[test]
     fn keyed_streams_differ_and_repeat() {
         assert_eq!(Lanes::keyed(1, 0), Lanes::keyed(1, 0));
         assert_ne!(Lanes::keyed(1, 0), Lanes::keyed(1, 1));
