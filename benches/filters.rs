@@ -4,8 +4,8 @@
 //! filters -- normal`.
 
 use attitude_service::attitude::{weighted_average, Quaternion};
-use attitude_service::rng::ziggurat;
-use attitude_service::rng::Xoshiro256PlusPlus;
+use attitude_service::rng::{fill_normals, ziggurat, Xoshiro256PlusPlus};
+use attitude_service::simd::Isa;
 use attitude_service::tools::bench::SteadyState;
 use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, ImuMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
@@ -101,8 +101,8 @@ fn wire(c: &mut Criterion) {
 }
 
 /// Standard normal draws from the particle filter's generator (Xoshiro256++), per draw: the Ziggurat
-/// of `crate::rng` one draw at a time and in pairs (what the QPF's propagation uses), and
-/// `rand_distr::StandardNormal` (also a Ziggurat, 256 layers, one 64-bit draw per sample).
+/// of `crate::rng` one draw at a time, on eight generators side by side as the QPF draws them
+/// (`fill_normals`, the detected instruction set), and `rand_distr::StandardNormal`.
 fn normal(c: &mut Criterion) {
     const DRAWS: usize = 1024;
     let mut group = c.benchmark_group("normal");
@@ -112,15 +112,13 @@ fn normal(c: &mut Criterion) {
     group.bench_function("ziggurat", |b| {
         b.iter(|| (0..DRAWS).map(|_| z.sample(&mut rng)).sum::<f64>())
     });
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
-    group.bench_function("ziggurat pairs", |b| {
+    let mut rows = vec![[0.0; 8]; DRAWS / 8];
+    let mut key = 0;
+    group.bench_function("ziggurat lanes", |b| {
         b.iter(|| {
-            (0..DRAWS / 2)
-                .map(|_| {
-                    let (u, v) = z.sample_pair(&mut rng);
-                    u + v
-                })
-                .sum::<f64>()
+            key += 1;
+            fill_normals(Isa::active(), key, 0, &mut rows);
+            rows[0][0]
         })
     });
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);

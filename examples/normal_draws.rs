@@ -1,62 +1,57 @@
-//! Standard normal draws per nanosecond on a busy machine: our Ziggurat (one draw at a time, and in
-//! pairs as the particle filter draws them) against `rand_distr::StandardNormal`, on the same generator
-//! (Xoshiro256++). The three are interleaved in short blocks (20 000 draws, ≈ 50 µs) for many rounds,
-//! so that other processes slow all three alike; it prints each one's min / median ns per draw and the
-//! median of the per-round ratios. The criterion group `normal` of `benches/filters.rs` measures the
-//! same loops one after the other. `cargo run --release --example normal_draws -- [rounds]`.
+//! Standard normal draws per nanosecond on a busy machine: our Ziggurat one draw at a time, the same
+//! on eight generators side by side as the particle filter draws them (`rng::fill_normals`, on every
+//! instruction set this machine has), and `rand_distr::StandardNormal` on the same generator
+//! (Xoshiro256++). They are interleaved in short blocks (24 576 draws) for many rounds, so that other
+//! processes slow all of them alike; it prints each one's min / median ns per draw and the median of
+//! the per-round ratios to `StandardNormal`. `cargo run --release --example normal_draws -- [rounds]`.
 
-use attitude_service::rng::Xoshiro256PlusPlus;
-use attitude_service::rng::{ziggurat, Ziggurat};
+use attitude_service::rng::{fill_normals, ziggurat, Xoshiro256PlusPlus};
+use attitude_service::simd::Isa;
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
 use std::time::Instant;
 
-const DRAWS: usize = 20_000;
-
-/// `DRAWS` normals from the generator, summed.
-type Sampler = fn(Ziggurat, &mut Xoshiro256PlusPlus) -> f64;
-
-#[inline(never)]
-fn single(z: Ziggurat, rng: &mut Xoshiro256PlusPlus) -> f64 {
-    (0..DRAWS).map(|_| z.sample(rng)).sum()
-}
-
-#[inline(never)]
-fn pairs(z: Ziggurat, rng: &mut Xoshiro256PlusPlus) -> f64 {
-    (0..DRAWS / 2)
-        .map(|_| {
-            let (u, v) = z.sample_pair(rng);
-            u + v
-        })
-        .sum()
-}
-
-#[inline(never)]
-fn rand_distr_normal(_: Ziggurat, rng: &mut Xoshiro256PlusPlus) -> f64 {
-    (0..DRAWS)
-        .map(|_| rng.sample::<f64, _>(rand_distr::StandardNormal))
-        .sum()
-}
+const ROWS: usize = 3072;
+const DRAWS: usize = ROWS * 8;
 
 fn main() {
     let rounds: usize = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())
-        .unwrap_or(3000);
-    let samplers: [(&str, Sampler); 3] = [
-        ("ziggurat", single),
-        ("ziggurat pairs", pairs),
-        ("rand_distr StandardNormal", rand_distr_normal),
-    ];
+        .unwrap_or(2000);
     let z = ziggurat();
-    let mut rngs = [0; 3].map(|_| Xoshiro256PlusPlus::seed_from_u64(1));
-    let mut ns: [Vec<f64>; 3] = Default::default();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    let mut rows = vec![[0.0; 8]; ROWS];
+    let isas: Vec<Isa> = Isa::ALL.into_iter().filter(|i| i.supported()).collect();
+    let mut names = vec![
+        "rand_distr StandardNormal".to_string(),
+        "ziggurat, one at a time".to_string(),
+    ];
+    names.extend(
+        isas.iter()
+            .map(|i| format!("ziggurat lanes ({})", i.name())),
+    );
+    let mut ns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     for round in 0..rounds {
-        for k in 0..3 {
-            // Rotate the order so that none always runs first.
-            let k = (k + round) % 3;
+        for k in 0..names.len() {
+            let k = (k + round) % names.len();
             let start = Instant::now();
-            black_box(samplers[k].1(z, &mut rngs[k]));
+            match k {
+                0 => {
+                    black_box(
+                        (0..DRAWS)
+                            .map(|_| rng.sample::<f64, _>(rand_distr::StandardNormal))
+                            .sum::<f64>(),
+                    );
+                }
+                1 => {
+                    black_box((0..DRAWS).map(|_| z.sample(&mut rng)).sum::<f64>());
+                }
+                _ => {
+                    fill_normals(isas[k - 2], round as u64, 0, &mut rows);
+                    black_box(&rows);
+                }
+            }
             ns[k].push(start.elapsed().as_secs_f64() * 1e9 / DRAWS as f64);
         }
     }
@@ -64,18 +59,12 @@ fn main() {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    for (k, (name, _)) in samplers.iter().enumerate() {
+    for (k, name) in names.iter().enumerate() {
         let min = ns[k].iter().copied().fold(f64::INFINITY, f64::min);
+        let ratio = median(ns[k].iter().zip(&ns[0]).map(|(a, b)| a / b).collect());
         println!(
-            "{name:26} min {min:.2} ns/draw, median {:.2} ns/draw",
+            "{name:30} min {min:.2} ns/draw, median {:.2} ns/draw, {ratio:.2}× StandardNormal",
             median(ns[k].clone())
-        );
-    }
-    for (k, name) in [(0, "ziggurat"), (1, "ziggurat pairs")] {
-        let ratios = ns[k].iter().zip(&ns[2]).map(|(a, b)| a / b).collect();
-        println!(
-            "{name} / StandardNormal: {:.2} (median of per-round ratios)",
-            median(ratios)
         );
     }
 }

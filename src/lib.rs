@@ -15,7 +15,9 @@
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also refuses NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub use attitude_core::{ahrs, attitude, bounds, filters, rejection, rng, sensors, sim, stats};
+pub use attitude_core::{
+    ahrs, attitude, bounds, filters, rejection, rng, sensors, sim, simd, stats,
+};
 
 pub mod cli;
 pub mod service;

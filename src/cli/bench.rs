@@ -2,6 +2,7 @@
 //! vehicle, timed). VQF side by side is `benches/vqf_compare.py`, which calls these two commands.
 
 use crate::filters::FilterSpec;
+use crate::simd::Isa;
 use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -17,6 +18,17 @@ pub struct BenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+    /// The particle filter's instruction set: avx512, avx2 or portable (default: the widest this
+    /// machine has). The estimates are the same bits with each.
+    #[arg(long)]
+    isa: Option<Isa>,
+    /// At most this many threads per particle-filter pass (default: one per core from 65 536
+    /// particles on, else one).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Only `qpf:average`, at each of these particle counts (comma-separated): the cost curve.
+    #[arg(long, value_delimiter = ',')]
+    curve: Option<Vec<usize>>,
 }
 
 #[derive(Args)]
@@ -42,6 +54,32 @@ pub struct ImuBenchArgs {
 pub fn bench(args: BenchArgs) -> Result<()> {
     if args.particles < 2 || !(args.seconds > 0.0) {
         bail!("--particles must be at least 2 and --seconds positive");
+    }
+    if let Err(isa) = Isa::force(args.isa) {
+        bail!("this machine cannot run {}", isa.name());
+    }
+    crate::filters::qpf::set_max_threads(args.threads.unwrap_or(0));
+    if let Some(counts) = args.curve {
+        if counts.iter().any(|n| *n < 2) {
+            bail!("--curve: every particle count must be at least 2");
+        }
+        let points =
+            crate::tools::bench::curve(&counts, std::time::Duration::from_secs_f64(args.seconds))?;
+        if args.json {
+            println!("{}", serde_json::to_value(&points)?);
+        } else {
+            println!(
+                "qpf:average, {} — particles, threads, µs per step, ns per particle-step",
+                Isa::active().name()
+            );
+            for p in points {
+                println!(
+                    "{:>9} {:>3} {:>12.1} {:>8.2}",
+                    p.particles, p.threads, p.qpf_us_per_step, p.qpf_ns_per_particle_step
+                );
+            }
+        }
+        return Ok(());
     }
     let report = crate::tools::bench::run(
         args.particles,

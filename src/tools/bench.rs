@@ -117,6 +117,9 @@ pub fn time_step(spec: &str, particles: usize, budget: Duration) -> Result<Durat
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
     pub particles: usize,
+    /// The instruction set of the particle filter's kernels and its threads per pass.
+    pub isa: String,
+    pub qpf_threads: usize,
     pub mekf_us_per_step: f64,
     pub usque_us_per_step: f64,
     pub usque_propagated_us_per_step: f64,
@@ -138,6 +141,8 @@ pub fn run(particles: usize, budget: Duration) -> Result<BenchReport, FilterErro
     let qpf_p = us(time_step("qpf:propagated", particles, budget)?);
     Ok(BenchReport {
         particles,
+        isa: crate::simd::Isa::active().name().to_string(),
+        qpf_threads: crate::filters::qpf::auto_threads(particles),
         mekf_us_per_step: mekf,
         usque_us_per_step: usque,
         usque_propagated_us_per_step: usque_p,
@@ -152,12 +157,14 @@ pub fn run(particles: usize, budget: Duration) -> Result<BenchReport, FilterErro
 impl BenchReport {
     pub fn table(&self) -> String {
         format!(
-            "filter step (gyro + 3 vectors), this machine\n\
+            "filter step (gyro + 3 vectors), this machine; particle filter: {}, {} thread(s)\n\
              {:<28} {:>10.2} µs   1.00× (baseline)\n\
              {:<28} {:>10.2} µs {:>6.2}×\n\
              {:<28} {:>10.2} µs {:>6.2}×\n\
              {:<28} {:>10.2} µs {:>6.1}×   {:.1} ns per particle-step\n\
              {:<28} {:>10.2} µs {:>6.1}×\n",
+            self.isa,
+            self.qpf_threads,
             "mekf",
             self.mekf_us_per_step,
             "usque:average",
@@ -175,4 +182,29 @@ impl BenchReport {
             self.qpf_propagated_us_per_step / self.mekf_us_per_step,
         )
     }
+}
+
+/// One point of the particle filter's cost curve (`bench --curve`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CurvePoint {
+    pub particles: usize,
+    pub threads: usize,
+    pub qpf_us_per_step: f64,
+    pub qpf_ns_per_particle_step: f64,
+}
+
+/// `qpf:average` at each particle count, about `budget` each.
+pub fn curve(counts: &[usize], budget: Duration) -> Result<Vec<CurvePoint>, FilterError> {
+    counts
+        .iter()
+        .map(|&n| {
+            let t = time_step("qpf:average", n, budget)?.as_secs_f64();
+            Ok(CurvePoint {
+                particles: n,
+                threads: crate::filters::qpf::auto_threads(n),
+                qpf_us_per_step: t * 1e6,
+                qpf_ns_per_particle_step: t * 1e9 / n as f64,
+            })
+        })
+        .collect()
 }

@@ -10,13 +10,17 @@ sample, no rest detection, no hard-iron fit) fails. Measured (total RMSE °; til
 
 | excerpt | MEKF | qpf:average (200) | VQF | Madgwick | before `P/V/imu`: MEKF, QPF |
 |---|---|---|---|---|---|
-| 16 | 0.84; 0.999, 1.20, 1.000 | 0.79; 0.999, 1.16, 1.000 | 0.89 | 4.81 | 1.01; 0.975, 2.34 · 1.06; 0.931, 4.16 |
-| 34 | 0.88; 0.997, 1.33, 1.000 | 1.03; 0.997, 1.34, 0.973 | 3.95 | 8.27 | 2.11; 0.997, 1.25 · 2.70; 0.777, 3.90 |
+| 16 | 0.84; 0.999, 1.20, 1.000 | 1.32; 0.997, 1.29, 1.000 | 0.89 | 4.81 | 1.01; 0.975, 2.34 · 1.06; 0.931, 4.16 |
+| 34 | 0.88; 0.997, 1.33, 1.000 | 1.69; 0.996, 1.38, 0.982 | 3.95 | 8.27 | 2.11; 0.997, 1.25 · 2.70; 0.777, 3.90 |
 
 (The same seed and samples give the same figures run after run; the MEKF's equal `attitude-service imu-study`'s.)
+The QPF's figure is one seed of a wide spread: with 200 particles its heading wanders by the seed. Over other tags
+(seeds) the total RMSE on 16 had median 1.04° and 90th percentile 1.42° (24 seeds; the scalar particle filter before
+issue 15: 1.06°, 1.46°), on 34 median 1.26°, 90th percentile 1.72°, worst 1.97° (48 seeds; before: 1.29°, 1.76°,
+2.38°); the tags here gave 0.79° and 1.03° before issue 15 and 1.32° and 1.69° after it.
 
-Bounds: ours at most VQF's total RMSE (16: MEKF 1.0×, QPF 1.1×) or far below it where VQF's magnetometer is fooled by
-the attached magnet (34: 0.35× and 0.4×), inclination within 1.1× VQF's; the tilt inside its 99% ellipse on ≥ 97%
+Bounds: ours at most VQF's total RMSE (16: MEKF 1.0×; the QPF, for its spread, 1.8×) or far below it where VQF's
+magnetometer is fooled by the attached magnet (34: 0.35× and 0.5×), inclination within 1.1× VQF's; the tilt inside its 99% ellipse on ≥ 97%
 (MEKF) / 95% (QPF) of the samples with a median tilt NEES in [0.7, 2.1] (honest: 1.39; a covariance 1.5× too small
 in σ puts it near 3, one 1.4× too large near 0.7), the heading inside 99% on ≥ 95% / 90%; VQF within ±50% of its
 measured figure (the data and the metric are read right); Madgwick worse than both of ours; the heading offset
@@ -42,15 +46,15 @@ SCRIPT = ROOT / "clients" / "python" / "broad_replay.py"
 OURS = ("mekf", "qpf:average")
 #: Most total RMSE as a multiple of VQF's on the same samples, per excerpt and filter.
 MAX_TOTAL_VS_VQF = {
-    "16_undisturbed_fast_translation_B_excerpt": {"mekf": 1.0, "qpf:average": 1.1},
-    "34_disturbed_attached_magnet_3cm_excerpt": {"mekf": 0.35, "qpf:average": 0.4},
+    "16_undisturbed_fast_translation_B_excerpt": {"mekf": 1.0, "qpf:average": 1.8},
+    "34_disturbed_attached_magnet_3cm_excerpt": {"mekf": 0.35, "qpf:average": 0.5},
 }
 #: Least fraction inside the 99% ellipse (tilt, heading), per filter.
 MIN_IN99 = {"mekf": (0.97, 0.95), "qpf:average": (0.95, 0.90)}
 #: Measured total RMSE, deg: ours (MEKF, QPF with 200 particles) and VQF's.
 MEASURED = {
-    "16_undisturbed_fast_translation_B_excerpt": {"mekf": 0.84, "qpf:average": 0.79, "vqf": 0.89},
-    "34_disturbed_attached_magnet_3cm_excerpt": {"mekf": 0.88, "qpf:average": 1.03, "vqf": 3.95},
+    "16_undisturbed_fast_translation_B_excerpt": {"mekf": 0.84, "qpf:average": 1.32, "vqf": 0.89},
+    "34_disturbed_attached_magnet_3cm_excerpt": {"mekf": 0.88, "qpf:average": 1.69, "vqf": 3.95},
 }
 
 

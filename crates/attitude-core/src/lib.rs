@@ -23,5 +23,6 @@ pub mod rejection;
 pub mod rng;
 pub mod sensors;
 pub mod sim;
+pub mod simd;
 pub mod stats;
 pub mod vehicle;

@@ -136,6 +136,24 @@ impl AverageAccumulator {
         self.count += n;
     }
 
+    /// An accumulator holding sums made elsewhere (a vectorised pass over particles): the ten
+    /// distinct entries of `M` (`xx xy xz xw yy yz yw zz zw ww`), `Σw` and the count. Non-finite sums
+    /// are reported by [`AverageAccumulator::finish`], as for [`AverageAccumulator::add_slices`].
+    pub fn from_sums(m: [f64; 10], total_weight: f64, count: usize) -> Self {
+        let [xx, xy, xz, xw, yy, yz, yw, zz, zw, ww] = m;
+        let mut acc = AverageAccumulator::new();
+        acc.m = Matrix4::new(
+            xx, xy, xz, xw, xy, yy, yz, yw, xz, yz, zz, zw, xw, yw, zw, ww,
+        );
+        if !(acc.m.iter().all(|v| v.is_finite()) && total_weight.is_finite() && total_weight >= 0.0)
+        {
+            acc.error = Some(AverageError::NonFiniteQuaternion { index: 0 });
+        }
+        acc.total_weight = total_weight;
+        acc.count = count;
+        acc
+    }
+
     /// Decides the average. `previous` fixes the sign (`q̄ᵀ q_prev ≥ 0`).
     pub fn finish(&self, previous: Option<&Quaternion>) -> Result<QuaternionAverage, AverageError> {
         if let Some(e) = &self.error {

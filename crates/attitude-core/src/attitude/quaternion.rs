@@ -5,25 +5,31 @@ use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 /// Below this angle (rad) a rotation's half-angle terms come from their Taylor series: exact to
 /// rounding (the first omitted terms are below 1e-17) and no trigonometric calls in the particle
 /// filter's per-particle propagation, where every step's rotation is tiny.
-const SERIES_ANGLE_RAD: f64 = 0.05;
+pub(crate) const SERIES_ANGLE_RAD: f64 = 0.05;
 
 /// `(sin(θ/2)/θ, cos(θ/2))` from `θ²`; safe at zero.
 #[inline]
 pub fn half_angle_terms(theta_sq: f64) -> (f64, f64) {
     if theta_sq < SERIES_ANGLE_RAD * SERIES_ANGLE_RAD {
-        // Horner forms of sin(h)/(2h) and cos(h), h = θ/2, with reciprocals (no divisions).
-        let h2 = 0.25 * theta_sq;
-        let s =
-            0.5 * (1.0 - h2 * (1.0 / 6.0) * (1.0 - h2 * (1.0 / 20.0) * (1.0 - h2 * (1.0 / 42.0))));
-        let c = 1.0
-            - h2 * 0.5
-                * (1.0 - h2 * (1.0 / 12.0) * (1.0 - h2 * (1.0 / 30.0) * (1.0 - h2 * (1.0 / 56.0))));
-        (s, c)
+        half_angle_series(theta_sq)
     } else {
         let angle = theta_sq.sqrt();
         let half = 0.5 * angle;
         (half.sin() / angle, half.cos())
     }
+}
+
+/// The series branch of [`half_angle_terms`] (valid below `SERIES_ANGLE_RAD`): Horner forms of
+/// `sin(h)/(2h)` and `cos(h)`, `h = θ/2`, with reciprocals (no divisions). Shared with the particle
+/// filter's vectorised propagation, which must give the same bits.
+#[inline(always)]
+pub(crate) fn half_angle_series(theta_sq: f64) -> (f64, f64) {
+    let h2 = 0.25 * theta_sq;
+    let s = 0.5 * (1.0 - h2 * (1.0 / 6.0) * (1.0 - h2 * (1.0 / 20.0) * (1.0 - h2 * (1.0 / 42.0))));
+    let c = 1.0
+        - h2 * 0.5
+            * (1.0 - h2 * (1.0 / 12.0) * (1.0 - h2 * (1.0 / 30.0) * (1.0 - h2 * (1.0 / 56.0))));
+    (s, c)
 }
 
 /// A unit attitude quaternion `q = [ϱ; q4]` (vector part `(x, y, z)`, scalar `w`).

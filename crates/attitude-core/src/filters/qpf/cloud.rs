@@ -94,132 +94,146 @@ impl Cloud {
         self.bz.copy_from_slice(&other.bz);
         self.w.copy_from_slice(&other.w);
     }
-
-    pub(super) fn ess(&self) -> f64 {
-        1.0 / self.w.iter().map(|w| w * w).sum::<f64>()
-    }
-
-    pub(super) fn average(
-        &self,
-        previous: &Quaternion,
-    ) -> Result<crate::attitude::QuaternionAverage, crate::attitude::AverageError> {
-        let mut acc = AverageAccumulator::new();
-        acc.add_slices(&self.qx, &self.qy, &self.qz, &self.qw, &self.w);
-        acc.finish(Some(previous))
-    }
-}
-
-/// `p ⊗ q` on components (Shuster product, see `Quaternion::compose`).
-#[inline(always)]
-pub(super) fn compose(p: [f64; 4], q: [f64; 4]) -> [f64; 4] {
-    let [px, py, pz, pw] = p;
-    let [qx, qy, qz, qw] = q;
-    [
-        pw * qx + qw * px - (py * qz - pz * qy),
-        pw * qy + qw * py - (pz * qx - px * qz),
-        pw * qz + qw * pz - (px * qy - py * qx),
-        pw * qw - (px * qx + py * qy + pz * qz),
-    ]
-}
-
-/// The MRP of `q ⊗ fid⁻¹` on components (shortest rotation: no shadow set).
-#[inline(always)]
-pub(super) fn mrp_about(q: [f64; 4], fid_inv: [f64; 4]) -> [f64; 3] {
-    let d = compose(q, fid_inv);
-    let k = if d[3] < 0.0 { -1.0 } else { 1.0 };
-    let f = k / (1.0 + k * d[3]);
-    [d[0] * f, d[1] * f, d[2] * f]
-}
-
-/// `MRP⁻¹(p) ⊗ fid` on components: `δq = [2p; 1 − ‖p‖²]/(1 + ‖p‖²)`, unit by construction.
-#[inline(always)]
-pub(super) fn from_mrp(p: [f64; 3], fid: [f64; 4]) -> [f64; 4] {
-    let n2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let f = 1.0 / (1.0 + n2);
-    compose(
-        [
-            2.0 * p[0] * f,
-            2.0 * p[1] * f,
-            2.0 * p[2] * f,
-            (1.0 - n2) * f,
-        ],
-        fid,
-    )
 }
 
 pub(super) fn components(q: &Quaternion) -> [f64; 4] {
     [q.x, q.y, q.z, q.w]
 }
 
-/// The weighted mean and covariance of the local states `[MRP(qᵢ ⊗ fid⁻¹); βᵢ]` in one pass, storing the
-/// states in `local` when given. The bias is taken relative to `b_ref` (the current estimate) so that
-/// the second moment does not cancel catastrophically.
-pub(super) fn cloud_moments(
-    c: &Cloud,
-    fid: &Quaternion,
-    b_ref: &Vector3<f64>,
-    mut local: Option<&mut [Vec<f64>; 6]>,
-) -> (Vector6<f64>, Matrix6<f64>) {
-    let fid_inv = components(&fid.inverse());
-    let mut sum = [0.0f64; 6];
-    let mut sq = [0.0f64; 21];
-    let n = c.len();
-    let (qx, qy, qz, qw, bx, by, bz, wt) = (
-        &c.qx[..n],
-        &c.qy[..n],
-        &c.qz[..n],
-        &c.qw[..n],
-        &c.bx[..n],
-        &c.by[..n],
-        &c.bz[..n],
-        &c.w[..n],
-    );
-    for i in 0..n {
-        let p = mrp_about([qx[i], qy[i], qz[i], qw[i]], fid_inv);
-        let x = [
-            p[0],
-            p[1],
-            p[2],
-            bx[i] - b_ref[0],
-            by[i] - b_ref[1],
-            bz[i] - b_ref[2],
-        ];
-        if let Some(l) = local.as_deref_mut() {
-            for (r, v) in x.iter().enumerate() {
-                l[r][i] = *v;
-            }
-        }
-        let w = wt[i];
-        let wx = [w * x[0], w * x[1], w * x[2], w * x[3], w * x[4], w * x[5]];
-        for r in 0..6 {
-            sum[r] += wx[r];
-        }
-        // The 21 distinct products of the upper triangle, row by row.
-        let mut k = 0;
+/// The weighted mean and covariance of the local states `[MRP(qᵢ ⊗ fid⁻¹); βᵢ]` and `Σwᵢ²`. The bias
+/// is taken relative to a reference (the current estimate) so that the second moment does not cancel
+/// catastrophically.
+pub(super) struct Stats {
+    pub mean: Vector6<f64>,
+    pub cov: Matrix6<f64>,
+    pub sum_w2: f64,
+}
+
+impl Stats {
+    /// From a moments pass over normalised weights.
+    pub(super) fn from_sums(m: &Moments, b_ref: &Vector3<f64>) -> Stats {
+        let sum = &m[..6];
+        let mut mean = Vector6::from_column_slice(sum);
+        let mut cov = Matrix6::zeros();
+        let mut k = 6;
         for r in 0..6 {
             for col in r..6 {
-                sq[k] += wx[r] * x[col];
+                let mut v = m[k] - sum[r] * sum[col];
+                if r == col {
+                    // One pass: for a collapsed cloud the difference can round below zero.
+                    v = v.max(0.0);
+                }
+                cov[(r, col)] = v;
+                cov[(col, r)] = v;
                 k += 1;
             }
         }
-    }
-    let mut mean = Vector6::from_column_slice(&sum);
-    let mut cov = Matrix6::zeros();
-    let mut k = 0;
-    for r in 0..6 {
-        for col in r..6 {
-            let mut v = sq[k] - sum[r] * sum[col];
-            if r == col {
-                // One pass: for a collapsed cloud the difference can round below zero.
-                v = v.max(0.0);
-            }
-            cov[(r, col)] = v;
-            cov[(col, r)] = v;
-            k += 1;
+        for r in 3..6 {
+            mean[r] += b_ref[r - 3];
+        }
+        Stats {
+            mean,
+            cov,
+            sum_w2: m[28],
         }
     }
-    for r in 3..6 {
-        mean[r] += b_ref[r - 3];
+}
+
+/// Adds block sums in block order.
+pub(super) fn add_to<const K: usize>(total: &mut [f64; K]) -> impl FnMut([f64; K]) + '_ {
+    move |part| {
+        for (t, p) in total.iter_mut().zip(part) {
+            *t += p;
+        }
     }
-    (mean, cov)
+}
+
+pub(super) fn local(fid: &Quaternion, b_ref: &Vector3<f64>) -> Local {
+    Local {
+        fid_inv: components(&fid.inverse()),
+        b_ref: [b_ref[0], b_ref[1], b_ref[2]],
+    }
+}
+
+impl Cloud {
+    fn quaternions(&self) -> [&[f64]; 4] {
+        [&self.qx, &self.qy, &self.qz, &self.qw]
+    }
+
+    fn biases(&self) -> [&[f64]; 3] {
+        [&self.bx, &self.by, &self.bz]
+    }
+
+    /// The moments of the local states about `fid` (weights unchanged).
+    pub(super) fn moments(
+        &self,
+        fid: &Quaternion,
+        b_ref: &Vector3<f64>,
+        isa: Isa,
+        threads: usize,
+    ) -> Stats {
+        let c = local(fid, b_ref);
+        let mut total = [0.0; 29];
+        par::blocks(
+            threads,
+            self.len(),
+            ((self.quaternions(), self.biases()), &self.w[..]),
+            |_, ((q, b), w)| kernels::moments_of(isa, &c, q, b, w),
+            add_to(&mut total),
+        );
+        Stats::from_sums(&total, b_ref)
+    }
+
+    /// The moments of the local states about `fid`, scaling the weights by `scale` first (`1/Σw`
+    /// after a weight update: the normalisation costs no pass of its own).
+    pub(super) fn moments_scaling(
+        &mut self,
+        fid: &Quaternion,
+        b_ref: &Vector3<f64>,
+        scale: f64,
+        isa: Isa,
+        threads: usize,
+    ) -> Stats {
+        let c = local(fid, b_ref);
+        let mut total = [0.0; 29];
+        let n = self.len();
+        let q = [&self.qx[..], &self.qy, &self.qz, &self.qw];
+        let b = [&self.bx[..], &self.by, &self.bz];
+        par::blocks(
+            threads,
+            n,
+            ((q, b), &mut self.w[..]),
+            |_, ((q, b), w)| kernels::moments(isa, &c, scale, q, b, w),
+            add_to(&mut total),
+        );
+        Stats::from_sums(&total, b_ref)
+    }
+
+    /// The weighted quaternion average (sign-continuous with `previous`).
+    pub(super) fn average(
+        &self,
+        previous: &Quaternion,
+        isa: Isa,
+        threads: usize,
+    ) -> Result<crate::attitude::QuaternionAverage, crate::attitude::AverageError> {
+        let mut total = [0.0; 11];
+        par::blocks(
+            threads,
+            self.len(),
+            (self.quaternions(), &self.w[..]),
+            |_, (q, w)| kernels::average_sums(isa, q[0], q[1], q[2], q[3], w),
+            add_to(&mut total),
+        );
+        average_of(&total, self.len(), previous)
+    }
+}
+
+/// The average from the sums of [`kernels::weigh`] or [`kernels::average_sums`].
+pub(super) fn average_of(
+    sums: &Average,
+    n: usize,
+    previous: &Quaternion,
+) -> Result<crate::attitude::QuaternionAverage, crate::attitude::AverageError> {
+    let m: [f64; 10] = std::array::from_fn(|k| sums[k + 1]);
+    AverageAccumulator::from_sums(m, sums[0], n).finish(Some(previous))
 }

@@ -28,27 +28,32 @@
 //! and falling back there measured worse (docs/algorithms.md §3).
 
 mod cloud;
+mod kernels;
 mod options;
+mod par;
+#[cfg(test)]
+mod tests;
 mod update;
 
 pub use cloud::Cloud;
 use cloud::*;
 use options::*;
 pub use options::{Kernel, QpfOptions};
+pub use par::{auto_threads, set_max_threads};
 use update::Evidence;
 
 use super::{
     Diagnostics, Driver, Estimate, Fiducial, FilterConfig, FilterCore, FilterError, FilterKind,
     FilterSpec, FilterState, GyroErrors, InitialState, QpfState,
 };
-use crate::attitude::quaternion::half_angle_terms;
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::rng::Xoshiro256PlusPlus;
-use crate::rng::{standard_normal, ziggurat};
 use crate::sensors::gyro::normal3;
 use crate::sensors::{imu, GyroNoise, VectorObservation};
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
-use rand::{Rng, SeedableRng};
+use crate::simd::Isa;
+use kernels::{Average, Local, Moments};
+use nalgebra::{Matrix3, Matrix4, Matrix6, Vector3, Vector6};
+use rand::{Rng, RngCore, SeedableRng};
 use rand_distr::{Beta, Distribution, StandardNormal};
 
 /// The quaternion particle filter.
@@ -59,17 +64,21 @@ pub struct Qpf {
     gyro: GyroNoise,
     gyro_errors: GyroErrors,
     cloud: Cloud,
-    /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update back.
+    /// Preallocated: the cloud being built by resampling, and a backup for rolling a failed update
+    /// back: its weights are saved at the start of every update, its particles are swapped in at the
+    /// update's first resampling (until then only the weights change).
     /// (Working buffers are not part of a checkpoint: they are sized again on a restore.)
     scratch: Cloud,
     backup: Cloud,
+    backup_has_particles: bool,
     log_lik: Vec<f64>,
-    /// Per-observation constants of the current update (reused buffer).
-    obs_terms: Vec<[f64; 11]>,
-    resample_index: Vec<usize>,
-    /// Local states `[δp; β − β_ref]` of every particle about the fiducial of the last
-    /// `locals_and_moments` (reused by the regularisation that may follow).
-    local: [Vec<f64>; 6],
+    /// The heading-only observations of the current update (reused buffer).
+    heading_terms: Vec<kernels::Heading>,
+    resample_index: Vec<u32>,
+    /// Threads of a pass (0: `par::auto_threads`) and the instruction set of the kernels (`None`:
+    /// `Isa::active`). The results do not depend on either.
+    threads: usize,
+    isa: Option<Isa>,
     /// The previous estimate propagated with `ω̃ − β̂` (Chang 2014, Eq. 1): the `propagated`
     /// fiducial, the sign reference of the average, and the fallback when the average is undecidable.
     q_prop: Quaternion,
@@ -98,11 +107,13 @@ impl Qpf {
             gyro_errors: s.gyro_errors,
             scratch: s.cloud.clone(),
             backup: s.cloud.clone(),
+            backup_has_particles: false,
             cloud: s.cloud,
             log_lik: vec![0.0; n],
-            obs_terms: Vec::with_capacity(16),
+            heading_terms: Vec::with_capacity(16),
             resample_index: vec![0; n],
-            local: std::array::from_fn(|_| vec![0.0; n]),
+            threads: 0,
+            isa: None,
             q_prop: s.q_prop,
             q_hat: s.q_hat,
             beta_hat: s.beta_hat,
@@ -120,6 +131,12 @@ impl Qpf {
         seed: u64,
     ) -> Result<Self, FilterError> {
         let n = config.particles;
+        if n > u32::MAX as usize {
+            return Err(FilterError::InvalidConfig(format!(
+                "at most {} particles, got {n}",
+                u32::MAX
+            )));
+        }
         if n < 2 {
             return Err(FilterError::InvalidConfig(format!(
                 "particles must be at least 2, got {n}"
@@ -195,11 +212,13 @@ impl Qpf {
             gyro_errors: config.gyro_errors,
             scratch: cloud.clone(),
             backup: cloud.clone(),
+            backup_has_particles: false,
             cloud,
             log_lik: vec![0.0; n],
-            obs_terms: Vec::with_capacity(16),
+            heading_terms: Vec::with_capacity(16),
             resample_index: vec![0; n],
-            local: std::array::from_fn(|_| vec![0.0; n]),
+            threads: 0,
+            isa: None,
             q_prop: q0,
             q_hat: q0,
             beta_hat: initial.bias_rad_s,
@@ -261,21 +280,49 @@ impl Qpf {
         self.cloud.len()
     }
 
-    /// The weighted average of the cloud (sign-continuous with `reference`), or `reference` itself
-    /// when the average is undecidable. Returns whether it fell back, and the concentration and gap.
-    fn average_or(&self, reference: &Quaternion) -> (Quaternion, bool, Option<(f64, f64)>) {
-        match self.cloud.average(reference) {
+    /// Runs every pass on `threads` threads (0: one per core from `par::PARALLEL_FROM` particles on,
+    /// the default). The estimates are the same bits whatever it is.
+    pub fn set_threads(&mut self, threads: usize) {
+        self.threads = threads;
+    }
+
+    /// Runs the kernels with `isa` (`None`: the detected or forced one, `Isa::active`); an
+    /// unsupported one runs the portable build. For tests and benchmarks: the bits are the same.
+    pub fn set_isa(&mut self, isa: Option<Isa>) {
+        self.isa = isa;
+    }
+
+    fn isa(&self) -> Isa {
+        self.isa.unwrap_or_else(Isa::active)
+    }
+
+    fn threads(&self) -> usize {
+        match self.threads {
+            0 => par::auto_threads(self.cloud.len()),
+            t => t,
+        }
+    }
+
+    /// The average of `sums` (sign-continuous with `reference`), or `reference` itself when the
+    /// average is undecidable. Returns whether it fell back, and the concentration and gap.
+    fn average_or(
+        avg: Result<crate::attitude::QuaternionAverage, crate::attitude::AverageError>,
+        reference: &Quaternion,
+    ) -> (Quaternion, bool, Option<(f64, f64)>) {
+        match avg {
             Ok(avg) => (avg.q, false, Some((avg.concentration, avg.gap))),
             Err(_) => (*reference, true, None),
         }
     }
 
     /// Moves the chart centre onto the current weights (the key to large initial errors): the
-    /// weighted average for `average`, `MRP⁻¹(Σ wᵢ δpᵢ) ⊗ fid` for `propagated`.
-    fn recenter(&mut self, fid: &Quaternion) -> Quaternion {
+    /// weighted average for `average` (from the sums of the weight update), `MRP⁻¹(Σ wᵢ δpᵢ) ⊗ fid`
+    /// for `propagated` (a moments pass, which also normalises the weights: `scale` becomes 1).
+    fn recenter(&mut self, fid: &Quaternion, sums: &Average, scale: &mut f64) -> Quaternion {
         match self.fiducial {
             Fiducial::Average => {
-                let (q, fell_back, conc) = self.average_or(fid);
+                let avg = cloud::average_of(sums, self.cloud.len(), fid);
+                let (q, fell_back, conc) = Self::average_or(avg, fid);
                 if fell_back {
                     *self.diagnostics.fiducial_fallbacks.get_or_insert(0) += 1;
                 }
@@ -286,7 +333,7 @@ impl Qpf {
                 q
             }
             Fiducial::Propagated => {
-                let (mean, _) = self.locals_and_moments(fid);
+                let mean = self.moments(fid, scale).mean;
                 Grp::MRP
                     .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
                     .compose(fid)
@@ -294,10 +341,14 @@ impl Qpf {
         }
     }
 
-    /// Computes every particle's local state about `fid` into `self.local` (for the regulariser that
-    /// may follow) and returns the weighted mean and covariance of `[δp; β]`, in one pass.
-    fn locals_and_moments(&mut self, fid: &Quaternion) -> (Vector6<f64>, Matrix6<f64>) {
-        cloud_moments(&self.cloud, fid, &self.beta_hat, Some(&mut self.local))
+    /// The moments of `[δp; β]` about `fid`, normalising the weights (`scale`, then 1) in the pass.
+    fn moments(&mut self, fid: &Quaternion, scale: &mut f64) -> Stats {
+        let (isa, threads) = (self.isa(), self.threads());
+        let st = self
+            .cloud
+            .moments_scaling(fid, &self.beta_hat, *scale, isa, threads);
+        *scale = 1.0;
+        st
     }
 }
 
@@ -326,39 +377,38 @@ impl FilterCore for Qpf {
             .gyro_errors
             .rate_variance(&(omega_meas_rad_s - self.beta_hat), dt_s);
         let sw = (self.gyro.discrete_rate_sigma(dt_s).powi(2) + extra / (dt_s * dt_s)).sqrt();
-        let w_meas = [
-            omega_meas_rad_s[0],
-            omega_meas_rad_s[1],
-            omega_meas_rad_s[2],
-        ];
+        let p = kernels::Propagation {
+            phi_b,
+            su,
+            sw,
+            omega: [
+                omega_meas_rad_s[0],
+                omega_meas_rad_s[1],
+                omega_meas_rad_s[2],
+            ],
+            dt: dt_s,
+        };
+        let (key, isa, threads) = (self.rng.next_u64(), self.isa(), self.threads());
         let c = &mut self.cloud;
-        let rng = &mut self.rng;
-        let z = ziggurat();
-        let particles =
-            c.qx.iter_mut()
-                .zip(c.qy.iter_mut())
-                .zip(c.qz.iter_mut())
-                .zip(c.qw.iter_mut())
-                .zip(c.bx.iter_mut())
-                .zip(c.by.iter_mut())
-                .zip(c.bz.iter_mut());
-        for ((((((qx, qy), qz), qw), bx), by), bz) in particles {
-            let b0 = [*bx, *by, *bz];
-            let mut b1 = [0.0; 3];
-            let mut th = [0.0; 3];
-            for k in 0..3 {
-                let (nu, nv) = z.sample_pair(rng);
-                b1[k] = phi_b * b0[k] + su * nu;
-                th[k] = (w_meas[k] - 0.5 * (b0[k] + b1[k]) - sw * nv) * dt_s;
-            }
-            let (sf, cf) = half_angle_terms(th[0] * th[0] + th[1] * th[1] + th[2] * th[2]);
-            let q = compose(
-                [th[0] * sf, th[1] * sf, th[2] * sf, cf],
-                [*qx, *qy, *qz, *qw],
-            );
-            (*qx, *qy, *qz, *qw) = (q[0], q[1], q[2], q[3]);
-            (*bx, *by, *bz) = (b1[0], b1[1], b1[2]);
-        }
+        let n = c.len();
+        let view = [
+            &mut c.qx[..],
+            &mut c.qy,
+            &mut c.qz,
+            &mut c.qw,
+            &mut c.bx,
+            &mut c.by,
+            &mut c.bz,
+        ];
+        par::blocks(
+            threads,
+            n,
+            view,
+            |k, [qx, qy, qz, qw, bx, by, bz]| {
+                kernels::propagate(isa, key, k, &p, qx, qy, qz, qw, bx, by, bz)
+            },
+            |()| {},
+        );
         self.q_prop = self
             .q_prop
             .propagate(&(omega_meas_rad_s - self.beta_hat), dt_s);
@@ -426,17 +476,24 @@ impl FilterCore for Qpf {
         let (q, bias, cov) = if self.stale {
             // Between updates: the cloud's moments about its re-centred fiducial, computed without
             // storing anything (this method does not change the filter).
+            let (isa, threads) = (self.isa(), self.threads());
             let fid = match self.fiducial {
-                Fiducial::Average => self.average_or(&self.q_prop).0,
+                Fiducial::Average => {
+                    let avg = self.cloud.average(&self.q_prop, isa, threads);
+                    Self::average_or(avg, &self.q_prop).0
+                }
                 Fiducial::Propagated => {
-                    let (mean, _) = cloud_moments(&self.cloud, &self.q_prop, &self.beta_hat, None);
+                    let mean = self
+                        .cloud
+                        .moments(&self.q_prop, &self.beta_hat, isa, threads)
+                        .mean;
                     Grp::MRP
                         .to_quaternion(&Vector3::new(mean[0], mean[1], mean[2]))
                         .compose(&self.q_prop)
                 }
             };
-            let (mean, cov) = cloud_moments(&self.cloud, &fid, &self.beta_hat, None);
-            Self::estimate_from(&fid, &mean, &cov)
+            let st = self.cloud.moments(&fid, &self.beta_hat, isa, threads);
+            Self::estimate_from(&fid, &st.mean, &st.cov)
         } else {
             (self.q_hat, self.beta_hat, self.p_hat)
         };

@@ -3,175 +3,216 @@
 
 use super::*;
 
+/// Davenport's `K` of `B = a b rᵀ`: `qᵀKq = a bᵀA(q)r` for any `q` (`attitude::wahba`).
+fn davenport(b: &Vector3<f64>, r: &Vector3<f64>, a: f64) -> Matrix4<f64> {
+    let bm = b * r.transpose() * a;
+    let z = b.cross(r) * a;
+    let sigma = bm.trace();
+    let s = bm + bm.transpose();
+    let mut k = Matrix4::zeros();
+    k.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(s - Matrix3::identity() * sigma));
+    k.fixed_view_mut::<3, 1>(0, 3).copy_from(&z);
+    k.fixed_view_mut::<1, 3>(3, 0).copy_from(&z.transpose());
+    k[(3, 3)] = sigma;
+    k
+}
+
+/// The coefficients of `qᵀKq` on the products `xx yy zz ww xy xz xw yz yw zw`.
+fn quadratic_coefficients(k: &Matrix4<f64>) -> [f64; 10] {
+    [
+        k[(0, 0)],
+        k[(1, 1)],
+        k[(2, 2)],
+        k[(3, 3)],
+        2.0 * k[(0, 1)],
+        2.0 * k[(0, 2)],
+        2.0 * k[(0, 3)],
+        2.0 * k[(1, 2)],
+        2.0 * k[(1, 3)],
+        2.0 * k[(2, 3)],
+    ]
+}
+
+/// The full-direction observations of an update as one quadratic form:
+/// `Σ −½σ⁻² ‖b − A(q) r‖² = c + qᵀKq` for a unit `q`, `K` of `B = Σ σ⁻² b rᵀ`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct VectorTerms {
+    k: Matrix4<f64>,
+    c: f64,
+}
+
+impl VectorTerms {
+    /// The form in the chart of `fid` (`kernels::Chart`): `K′ = K − λ̄I`, `λ̄ = q̄ᵀKq̄`, so that
+    /// the large constant `λ̄` never meets the per-particle terms (the direct `qᵀKq` would lose
+    /// `λ̄ · 1e-16` ≈ 1e-8 at σ = 1e-4, and a particle's norm error would count `λ̄` times).
+    pub(super) fn chart(&self, fid: &Quaternion) -> kernels::Chart {
+        let qb = fid.to_vector4();
+        let lambda = (qb.transpose() * self.k * qb)[0];
+        let kp = self.k - Matrix4::identity() * lambda;
+        let g = kp * qb;
+        kernels::Chart {
+            qbar: [qb[0], qb[1], qb[2], qb[3]],
+            g2: [2.0 * g[0], 2.0 * g[1], 2.0 * g[2], 2.0 * g[3]],
+            k: [
+                kp[(0, 0)],
+                kp[(0, 1)],
+                kp[(0, 2)],
+                kp[(0, 3)],
+                kp[(1, 1)],
+                kp[(1, 2)],
+                kp[(1, 3)],
+                kp[(2, 2)],
+                kp[(2, 3)],
+                kp[(3, 3)],
+            ],
+            c: self.c + lambda,
+        }
+    }
+}
+
 impl Qpf {
-    pub(super) fn log_likelihoods(&mut self, evidence: &Evidence<'_>) {
-        let observations = match evidence {
-            Evidence::Vectors(o) => *o,
-            Evidence::Bias(z, sigma) => {
-                // −½ ‖z − βᵢ‖²/σ²: a direct observation of the bias.
-                let k = -0.5 / (sigma * sigma);
-                let c = &self.cloud;
-                for (i, out) in self.log_lik.iter_mut().enumerate() {
-                    let d = [z[0] - c.bx[i], z[1] - c.by[i], z[2] - c.bz[i]];
-                    *out = k * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                }
-                return;
-            }
-        };
-        // Per observation: reference, measurement and −½σ⁻², computed once (the buffer is reused).
-        // A tilt-only observation has the likelihood of its full direction (gravity says nothing about
-        // the heading, so the weights cannot turn the cloud about the vertical).
-        self.obs_terms.clear();
-        // A heading-only observation (crate::sensors::imu) holds [e₁; b; −½σ_ψ⁻²; e₂; 1]: its
-        // log-likelihood is −½ψ²/σ_ψ², ψ = atan2(b·(A e₂), b·(A e₁)). One whose reference has no
-        // horizontal part says nothing and is left out.
-        self.obs_terms.extend(observations.iter().filter_map(|o| {
+    /// The constants of an update's evidence: the full-direction observations as one form, the
+    /// heading-only ones in `heading_terms` (a tilt-only observation has the likelihood of its full
+    /// direction: gravity says nothing about the heading, so the weights cannot turn the cloud about
+    /// the vertical). A heading-only observation whose reference has no horizontal part says nothing
+    /// and is left out.
+    pub(super) fn prepare(&mut self, observations: &[VectorObservation]) -> Option<VectorTerms> {
+        self.heading_terms.clear();
+        let mut full: Option<VectorTerms> = None;
+        for o in observations {
             let b = &o.body;
             match o.aspect.heading_axis() {
                 None => {
-                    let r = &o.reference;
-                    Some([
-                        r[0],
-                        r[1],
-                        r[2],
-                        b[0],
-                        b[1],
-                        b[2],
-                        -0.5 / (o.sigma * o.sigma),
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                    ])
+                    let a = 1.0 / (o.sigma * o.sigma);
+                    let t = full.get_or_insert(VectorTerms {
+                        k: Matrix4::zeros(),
+                        c: 0.0,
+                    });
+                    t.k += davenport(b, &o.reference, a);
+                    t.c -= 0.5 * a * (b.norm_squared() + o.reference.norm_squared());
                 }
                 Some(up) => {
-                    let (e1, e2, horizontal) = imu::heading_basis(&o.reference, up)?;
+                    let Some((e1, e2, horizontal)) = imu::heading_basis(&o.reference, up) else {
+                        continue;
+                    };
                     let s = imu::heading_sigma_rad(o.sigma, horizontal);
-                    Some([
-                        e1[0],
-                        e1[1],
-                        e1[2],
-                        b[0],
-                        b[1],
-                        b[2],
-                        -0.5 / (s * s),
-                        e2[0],
-                        e2[1],
-                        e2[2],
-                        1.0,
-                    ])
+                    // ψ = atan2(b·(A e₂), b·(A e₁)): each a quadratic form in q.
+                    self.heading_terms.push(kernels::Heading {
+                        k1: quadratic_coefficients(&davenport(b, &e1, 1.0)),
+                        k2: quadratic_coefficients(&davenport(b, &e2, 1.0)),
+                        half_inv_var: -0.5 / (s * s),
+                    });
                 }
             }
-        }));
-        let terms = &self.obs_terms[..];
+        }
+        full
+    }
+
+    /// Every particle's log-likelihood into `log_lik` (the full-direction form in the chart of
+    /// `fid`), and the smallest and largest of the live particles.
+    pub(super) fn log_likelihoods(
+        &mut self,
+        evidence: &Evidence<'_>,
+        terms: Option<&VectorTerms>,
+        fid: &Quaternion,
+    ) -> kernels::Spread {
+        let (isa, threads, n) = (self.isa(), self.threads(), self.cloud.len());
         let c = &self.cloud;
-        let particles =
-            c.qx.iter()
-                .zip(&c.qy)
-                .zip(&c.qz)
-                .zip(&c.qw)
-                .zip(self.log_lik.iter_mut());
-        for ((((&x, &y), &z), &w), out) in particles {
-            // A(q) = (w² − ϱᵀϱ) I + 2 ϱϱᵀ − 2 w [ϱ×], written out.
-            let (xx, yy, zz, ww) = (x * x, y * y, z * z, w * w);
-            let (xy, xz, yz, xw, yw, zw) = (x * y, x * z, y * z, x * w, y * w, z * w);
-            let a = [
-                ww + xx - yy - zz,
-                2.0 * (xy + zw),
-                2.0 * (xz - yw),
-                2.0 * (xy - zw),
-                ww - xx + yy - zz,
-                2.0 * (yz + xw),
-                2.0 * (xz + yw),
-                2.0 * (yz - xw),
-                ww - xx - yy + zz,
-            ];
-            let mut ll = 0.0;
-            for t in terms {
-                if t[10] != 0.0 {
-                    // b·(A e₁), b·(A e₂).
-                    let c = t[3] * (a[0] * t[0] + a[1] * t[1] + a[2] * t[2])
-                        + t[4] * (a[3] * t[0] + a[4] * t[1] + a[5] * t[2])
-                        + t[5] * (a[6] * t[0] + a[7] * t[1] + a[8] * t[2]);
-                    let sn = t[3] * (a[0] * t[7] + a[1] * t[8] + a[2] * t[9])
-                        + t[4] * (a[3] * t[7] + a[4] * t[8] + a[5] * t[9])
-                        + t[5] * (a[6] * t[7] + a[7] * t[8] + a[8] * t[9]);
-                    let psi = sn.atan2(c);
-                    ll += t[6] * psi * psi;
-                    continue;
-                }
-                let d0 = t[3] - (a[0] * t[0] + a[1] * t[1] + a[2] * t[2]);
-                let d1 = t[4] - (a[3] * t[0] + a[4] * t[1] + a[5] * t[2]);
-                let d2 = t[5] - (a[6] * t[0] + a[7] * t[1] + a[8] * t[2]);
-                ll += t[6] * (d0 * d0 + d1 * d1 + d2 * d2);
+        let q = [&c.qx[..], &c.qy, &c.qz, &c.qw];
+        let mut spread = [f64::INFINITY, f64::NEG_INFINITY];
+        let mut widen = |s: kernels::Spread| {
+            if s[0] < spread[0] {
+                spread[0] = s[0];
             }
-            *out = ll;
-        }
-    }
-
-    /// Multiplies the weights by `L^λ` and renormalises; false when every weight vanished. The
-    /// factor `exp(λ (log Lᵢ − max log L))` is at most 1 and is 1 for a live particle, so no logarithm
-    /// of the weights is needed and the sum cannot vanish.
-    pub(super) fn apply_likelihood(&mut self, lambda: f64) -> bool {
-        let mut max = f64::NEG_INFINITY;
-        for (ll, w) in self.log_lik.iter().zip(&self.cloud.w) {
-            if *w > 0.0 && *ll > max {
-                max = *ll;
+            if s[1] > spread[1] {
+                spread[1] = s[1];
+            }
+        };
+        let ll = &mut self.log_lik[..];
+        match evidence {
+            Evidence::Bias(z, sigma) => {
+                let (z, k) = ([z[0], z[1], z[2]], -0.5 / (sigma * sigma));
+                let b = [&c.bx[..], &c.by, &c.bz];
+                par::blocks(
+                    threads,
+                    n,
+                    ((b, &c.w[..]), ll),
+                    |_, (([bx, by, bz], w), ll)| kernels::loglik_bias(isa, z, k, bx, by, bz, w, ll),
+                    &mut widen,
+                );
+            }
+            Evidence::Vectors(_) => {
+                // With no full-direction observation the form is zero (c = 0, K = 0).
+                let chart = terms.map(|t| t.chart(fid)).unwrap_or_default();
+                let heading = &self.heading_terms[..];
+                par::blocks(
+                    threads,
+                    n,
+                    ((q, &c.w[..]), ll),
+                    |_, (([qx, qy, qz, qw], w), ll)| {
+                        let s = kernels::loglik_vectors(isa, &chart, qx, qy, qz, qw, w, ll);
+                        if heading.is_empty() {
+                            s
+                        } else {
+                            kernels::loglik_heading(isa, heading, qx, qy, qz, qw, w, ll)
+                        }
+                    },
+                    &mut widen,
+                );
             }
         }
-        if !max.is_finite() {
-            return false;
-        }
-        let mut sum = 0.0;
-        for (ll, w) in self.log_lik.iter().zip(self.cloud.w.iter_mut()) {
-            *w *= (lambda * (ll - max)).exp();
-            sum += *w;
-        }
-        if !(sum > 0.0 && sum.is_finite()) {
-            return false;
-        }
-        let inv = 1.0 / sum;
-        for w in &mut self.cloud.w {
-            *w *= inv;
-        }
-        true
+        spread
     }
 
-    /// Systematic resampling, then the shrinkage kernel in the local space about `fid` (whose local
-    /// states, mean and covariance `locals_and_moments` just computed):
+    /// Multiplies the weights by `L^λ` (`exp(λ (log Lᵢ − max))`, at most 1 and 1 for the best live
+    /// particle, so no logarithm of the weights is needed and the sum cannot vanish) and returns the
+    /// sums the average needs; the weights are left unnormalised (`Σw` is the first sum).
+    pub(super) fn apply_likelihood(&mut self, lambda: f64, max: f64) -> Average {
+        let (isa, threads, n) = (self.isa(), self.threads(), self.cloud.len());
+        let c = &mut self.cloud;
+        let q = [&c.qx[..], &c.qy, &c.qz, &c.qw];
+        let mut total = [0.0; 11];
+        par::blocks(
+            threads,
+            n,
+            ((q, &self.log_lik[..]), &mut c.w[..]),
+            |_, (([qx, qy, qz, qw], ll), w)| {
+                kernels::weigh(isa, lambda, max, qx, qy, qz, qw, ll, w)
+            },
+            add_to(&mut total),
+        );
+        total
+    }
+
+    /// Systematic resampling, then the shrinkage kernel in the local space about `fid` (whose
+    /// normalised moments `st` are given; the local states are computed again from the resampled
+    /// particles rather than stored by every moments pass):
     /// `xᵢ ← x̄ + s [a (x_idx(i) − x̄) + h D εᵢ]`, `a = √(1 − h_eff²)`, `D Dᵀ = S`, `s = √(1 + inflation)`,
     /// which keeps the cloud's mean in expectation and (up to the inflation) its covariance; then the
     /// cloud is shifted so that its mean is exactly `x̄`.
-    pub(super) fn resample_and_regularize(
-        &mut self,
-        fid: &Quaternion,
-        mean: &Vector6<f64>,
-        cov: &Matrix6<f64>,
-    ) {
+    pub(super) fn resample_and_regularize(&mut self, fid: &Quaternion, st: &Stats) {
         let n = self.cloud.len();
-        // Systematic resampling: one uniform offset, O(N).
+        // Systematic resampling: one uniform offset, O(N), in order.
         let step = 1.0 / n as f64;
         let mut u = self.rng.random::<f64>() * step;
         let mut cum = self.cloud.w[0];
         let mut j = 0;
-        for i in 0..n {
+        for slot in self.resample_index.iter_mut() {
             while u > cum && j < n - 1 {
                 j += 1;
                 cum += self.cloud.w[j];
             }
-            self.resample_index[i] = j;
+            *slot = j as u32;
             u += step;
         }
-        let d = regularization_factor(cov);
+        let d = regularization_factor(&st.cov);
         let h = self.options.kernel.optimal_bandwidth(n) * self.options.bandwidth_scale;
         let h_eff = (h * h * self.options.kernel.unit_variance())
             .sqrt()
             .min(0.99);
-        let a = (1.0 - h_eff * h_eff).sqrt();
-        let h_draw = h_eff / self.options.kernel.unit_variance().sqrt();
-        let s = (1.0 + self.options.inflation).sqrt();
-        let fid = components(fid);
         let b_ref = self.beta_hat;
+        let mean = &st.mean;
         // Local states are relative to b_ref in the bias part; so is the mean here.
         let m = [
             mean[0],
@@ -182,53 +223,96 @@ impl Qpf {
             mean[5] - b_ref[2],
         ];
         let beta = Beta::new(STATE_DIM / 2.0, 2.0).ok();
-        for i in 0..n {
-            let j = self.resample_index[i];
-            let eps = match (self.options.kernel, &beta) {
-                (Kernel::Epanechnikov, Some(b)) => epanechnikov_draw(&mut self.rng, b),
-                _ => Vector6::from_fn(|_, _| standard_normal(&mut self.rng)),
-            };
-            let de = d * eps;
-            let mut xn = [0.0; 6];
-            for (r, out) in xn.iter_mut().enumerate() {
-                *out = m[r] + s * (a * (self.local[r][j] - m[r]) + h_draw * de[r]);
-            }
-            // (The local states, kept in the scratch cloud until the mean is known.)
-            let sc = &mut self.scratch;
-            (sc.qx[i], sc.qy[i], sc.qz[i]) = (xn[0], xn[1], xn[2]);
-            (sc.bx[i], sc.by[i], sc.bz[i]) = (xn[3], xn[4], xn[5]);
-        }
+        let c = &self.cloud;
+        let r = kernels::Regularisation {
+            local: local(fid, &b_ref),
+            m,
+            d: {
+                let mut packed = [0.0; 21];
+                let mut k = 0;
+                for row in 0..6 {
+                    for col in 0..=row {
+                        packed[k] = d[(row, col)];
+                        k += 1;
+                    }
+                }
+                packed
+            },
+            a: (1.0 - h_eff * h_eff).sqrt(),
+            s: (1.0 + self.options.inflation).sqrt(),
+            h: h_eff / self.options.kernel.unit_variance().sqrt(),
+            beta: match self.options.kernel {
+                Kernel::Epanechnikov => beta.as_ref(),
+                Kernel::Gaussian => None,
+            },
+            src: [&c.qx, &c.qy, &c.qz, &c.qw, &c.bx, &c.by, &c.bz],
+        };
+        let (key, isa, threads) = (self.rng.next_u64(), self.isa(), self.threads());
+        // The local states are kept in the scratch cloud until the mean is known.
+        let sc = &mut self.scratch;
+        let mut sums = [0.0; 6];
+        par::blocks(
+            threads,
+            n,
+            (
+                &self.resample_index[..],
+                [
+                    &mut sc.qx[..],
+                    &mut sc.qy,
+                    &mut sc.qz,
+                    &mut sc.bx,
+                    &mut sc.by,
+                    &mut sc.bz,
+                ],
+            ),
+            |k, (idx, [x0, x1, x2, x3, x4, x5])| {
+                kernels::regularise(isa, key, k, &r, idx, x0, x1, x2, x3, x4, x5)
+            },
+            add_to(&mut sums),
+        );
         // Mean-preserving: the new cloud is shifted so that its mean in the local space is the
         // weighted mean before resampling. Which particles a resampling happens to pick moves the
         // mean at random; in a direction the observations do not see (the heading while the
         // magnetometer is rejected, the vertical bias) those moves add up to a random walk of the
         // estimate that no information caused.
-        let sc = &mut self.scratch;
         let inv_n = 1.0 / n as f64;
-        let mean_of = |v: &[f64]| v.iter().sum::<f64>() * inv_n;
-        let shift = [
-            m[0] - mean_of(&sc.qx),
-            m[1] - mean_of(&sc.qy),
-            m[2] - mean_of(&sc.qz),
-            m[3] - mean_of(&sc.bx),
-            m[4] - mean_of(&sc.by),
-            m[5] - mean_of(&sc.bz),
-        ];
-        for i in 0..n {
-            let q = from_mrp(
-                [
-                    sc.qx[i] + shift[0],
-                    sc.qy[i] + shift[1],
-                    sc.qz[i] + shift[2],
-                ],
-                fid,
-            );
-            (sc.qx[i], sc.qy[i], sc.qz[i], sc.qw[i]) = (q[0], q[1], q[2], q[3]);
-            sc.bx[i] += shift[3] + b_ref[0];
-            sc.by[i] += shift[4] + b_ref[1];
-            sc.bz[i] += shift[5] + b_ref[2];
-        }
+        let shift: [f64; 6] = std::array::from_fn(|r| m[r] - sums[r] * inv_n);
+        let (fid, b_ref) = (components(fid), [b_ref[0], b_ref[1], b_ref[2]]);
+        par::blocks(
+            threads,
+            n,
+            [
+                &mut sc.qx[..],
+                &mut sc.qy,
+                &mut sc.qz,
+                &mut sc.qw,
+                &mut sc.bx,
+                &mut sc.by,
+                &mut sc.bz,
+            ],
+            |_, [qx, qy, qz, qw, bx, by, bz]| {
+                kernels::rebuild(isa, fid, shift, b_ref, qx, qy, qz, qw, bx, by, bz)
+            },
+            |()| {},
+        );
         std::mem::swap(&mut self.cloud, &mut self.scratch);
+        if !self.backup_has_particles {
+            // Until now only the weights changed: the particles the update started from are now in
+            // the scratch cloud, and become the backup's by a swap of columns (no copy).
+            let (b, s) = (&mut self.backup, &mut self.scratch);
+            for (x, y) in [
+                (&mut b.qx, &mut s.qx),
+                (&mut b.qy, &mut s.qy),
+                (&mut b.qz, &mut s.qz),
+                (&mut b.qw, &mut s.qw),
+                (&mut b.bx, &mut s.bx),
+                (&mut b.by, &mut s.by),
+                (&mut b.bz, &mut s.bz),
+            ] {
+                std::mem::swap(x, y);
+            }
+            self.backup_has_particles = true;
+        }
         self.cloud.w.fill(step);
         *self.diagnostics.resamples.get_or_insert(0) += 1;
     }
@@ -249,16 +333,22 @@ impl Qpf {
         (q, Vector3::new(mean[3], mean[4], mean[5]), j * cov * j)
     }
 
-    /// One update, rolled back on failure: the cloud and the weights are restored from a
-    /// preallocated copy.
+    /// One update, rolled back on failure: the weights are restored from the backup, the particles
+    /// too when a resampling moved them, and the generator.
     pub(super) fn update_with(&mut self, evidence: &Evidence<'_>) -> Result<(), FilterError> {
-        self.backup.copy_from(&self.cloud);
-        let saved = (self.q_prop, self.diagnostics.clone());
+        self.backup.w.copy_from_slice(&self.cloud.w);
+        self.backup_has_particles = false;
+        // (The generator too: a refused update that resampled must not change what the next step
+        // draws.)
+        let saved = (self.q_prop, self.diagnostics.clone(), self.rng.clone());
         let result = self.try_update(evidence);
         if result.is_err() {
-            self.cloud.copy_from(&self.backup);
-            self.q_prop = saved.0;
-            self.diagnostics = saved.1;
+            if self.backup_has_particles {
+                self.cloud.copy_from(&self.backup);
+            } else {
+                self.cloud.w.copy_from_slice(&self.backup.w);
+            }
+            (self.q_prop, self.diagnostics, self.rng) = saved;
         }
         result
     }
@@ -268,41 +358,46 @@ impl Qpf {
         //    reference and the fallback; the average itself is taken after the weights change (a
         //    prior-weight average would be replaced at once by the re-centring below).
         let mut fid = self.q_prop;
+        let terms = match evidence {
+            Evidence::Vectors(o) => self.prepare(o),
+            Evidence::Bias(..) => None,
+        };
+        // The weights are normalised lazily: by the next moments pass, with this factor.
+        let mut scale;
         // 2–3. Progressive correction with re-centring after every weight change.
-        self.log_likelihoods(evidence);
+        let mut spread = self.log_likelihoods(evidence, terms.as_ref(), &fid);
         let mut remaining = 1.0;
         let mut stages = 0u32;
         loop {
             stages += 1;
-            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for (ll, w) in self.log_lik.iter().zip(&self.cloud.w) {
-                if *w > 0.0 {
-                    lo = lo.min(*ll);
-                    hi = hi.max(*ll);
-                }
-            }
-            let spread = hi - lo;
-            let lambda = if stages >= self.options.pc_max_stages || !(spread > 0.0) {
-                remaining
-            } else {
-                (self.options.pc_spread / spread).min(remaining)
-            };
-            if !self.apply_likelihood(lambda) {
+            let [lo, hi] = spread;
+            if !hi.is_finite() {
                 return Err(FilterError::WeightsVanished);
             }
+            let width = hi - lo;
+            let lambda = if stages >= self.options.pc_max_stages || !(width > 0.0) {
+                remaining
+            } else {
+                (self.options.pc_spread / width).min(remaining)
+            };
+            let sums = self.apply_likelihood(lambda, hi);
+            if !(sums[0] > 0.0 && sums[0].is_finite()) {
+                return Err(FilterError::WeightsVanished);
+            }
+            scale = 1.0 / sums[0];
             remaining -= lambda;
-            fid = self.recenter(&fid);
+            fid = self.recenter(&fid, &sums, &mut scale);
             if remaining <= 1e-12 {
                 break;
             }
-            let (mean, cov) = self.locals_and_moments(&fid);
-            self.resample_and_regularize(&fid, &mean, &cov);
-            self.log_likelihoods(evidence);
+            let st = self.moments(&fid, &mut scale);
+            self.resample_and_regularize(&fid, &st);
+            spread = self.log_likelihoods(evidence, terms.as_ref(), &fid);
         }
         // 4. The estimate before the final resampling.
-        let (mean, cov) = self.locals_and_moments(&fid);
-        let (q_hat, beta_hat, p_hat) = Self::estimate_from(&fid, &mean, &cov);
-        let ess = self.cloud.ess();
+        let st = self.moments(&fid, &mut scale);
+        let (q_hat, beta_hat, p_hat) = Self::estimate_from(&fid, &st.mean, &st.cov);
+        let ess = 1.0 / st.sum_w2;
         if !(q_hat.is_finite()
             && beta_hat.iter().all(|b| b.is_finite())
             && p_hat.iter().all(|x| x.is_finite()))
@@ -313,7 +408,7 @@ impl Qpf {
         }
         // 5. Resample when the effective sample size drops.
         if ess < self.options.resample_fraction * self.cloud.len() as f64 {
-            self.resample_and_regularize(&fid, &mean, &cov);
+            self.resample_and_regularize(&fid, &st);
         }
         self.q_hat = q_hat.canonical();
         self.q_prop = q_hat;

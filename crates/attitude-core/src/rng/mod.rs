@@ -7,13 +7,13 @@
 //! * [`Xoshiro256PlusPlus`]: the generator of the particle filter and the simulator (Blackman & Vigna),
 //!   bit for bit the one of the `rand_xoshiro` crate (pinned by a test against it), with its state
 //!   readable and settable so that a checkpoint can save and restore it without serde in the core;
-//! * fast standard-normal draws for the particle filter: the Ziggurat method (Marsaglia & Tsang 2000,
-//!   in Doornik's 128-layer form) on one 64-bit draw per sample on the fast path (≈ 99% of draws): 53
-//!   bits of uniform and the layer index from the low 7 bits. Seedable and deterministic through the
-//!   RNG.
+//! * [`normal`]: fast standard-normal draws for the particle filter (a Ziggurat), one generator at a
+//!   time or eight side by side ([`Lanes`]) for vectorised kernels.
 
+mod normal;
+
+pub use normal::{fill_normals, standard_normal, ziggurat, Lanes, Ziggurat};
 use rand::RngCore;
-use std::sync::LazyLock;
 
 /// The 64-bit FNV-1a offset basis: the hash of no bytes, where a hash starts.
 pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -143,130 +143,6 @@ impl RngCore for Xoshiro256PlusPlus {
     }
 }
 
-const LAYERS: usize = 128;
-/// Start of the tail, and the area of each layer (Doornik 2005, "An improved ziggurat method").
-const R: f64 = 3.442_619_855_899;
-const V: f64 = 9.912_563_035_262_17e-3;
-
-struct Tables {
-    /// Layer right edges `x[0..=LAYERS]` (`x[0] = V / f(R)`, `x[1] = R`, `x[LAYERS] = 0`).
-    x: [f64; LAYERS + 1],
-    /// `x[i+1] / x[i]`: below it a draw is inside the layer's rectangle.
-    ratio: [f64; LAYERS],
-}
-
-static TABLES: LazyLock<Tables> = LazyLock::new(|| {
-    let mut x = [0.0; LAYERS + 1];
-    let mut f = (-0.5 * R * R).exp();
-    x[0] = V / f;
-    x[1] = R;
-    for i in 2..LAYERS {
-        x[i] = (-2.0 * (V / x[i - 1] + f).ln()).sqrt();
-        f = (-0.5 * x[i] * x[i]).exp();
-    }
-    x[LAYERS] = 0.0;
-    let mut ratio = [0.0; LAYERS];
-    for i in 0..LAYERS {
-        ratio[i] = x[i + 1] / x[i];
-    }
-    Tables { x, ratio }
-});
-
-/// A uniform in [0, 1) from 53 bits.
-#[inline(always)]
-fn unit(bits: u64) -> f64 {
-    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
-
-/// The sampler: a handle on the tables, taken once outside a hot loop.
-#[derive(Clone, Copy)]
-pub struct Ziggurat(&'static Tables);
-
-/// The shared sampler (the tables are built on first use).
-pub fn ziggurat() -> Ziggurat {
-    Ziggurat(&TABLES)
-}
-
-impl Ziggurat {
-    /// One standard normal draw.
-    #[inline(always)]
-    pub fn sample<G: RngCore + ?Sized>(&self, rng: &mut G) -> f64 {
-        let t = self.0;
-        loop {
-            let bits = rng.next_u64();
-            let i = (bits & 0x7f) as usize;
-            // u in (−1, 1) from the top 53 bits.
-            let u = 2.0 * unit(bits) - 1.0;
-            if u.abs() < t.ratio[i] {
-                return u * t.x[i];
-            }
-            if let Some(x) = slow_path(t, rng, i, u) {
-                return x;
-            }
-        }
-    }
-}
-
-impl Ziggurat {
-    /// Two standard normal draws from one 64-bit draw on the fast path: each 32-bit half gives the
-    /// layer (7 bits) and a 25-bit signed uniform (Marsaglia & Tsang's original 32-bit form). The
-    /// 2⁻²⁴ resolution is far below anything a filter's process noise can resolve.
-    #[inline(always)]
-    pub fn sample_pair<G: RngCore + ?Sized>(&self, rng: &mut G) -> (f64, f64) {
-        let bits = rng.next_u64();
-        let a = self.from_u32(bits as u32, rng);
-        let b = self.from_u32((bits >> 32) as u32, rng);
-        (a, b)
-    }
-
-    #[inline(always)]
-    fn from_u32<G: RngCore + ?Sized>(&self, word: u32, rng: &mut G) -> f64 {
-        let t = self.0;
-        let i = (word & 0x7f) as usize;
-        // The top 25 bits as a signed integer: u in [−1, 1).
-        let u = ((word as i32) >> 7) as f64 * (1.0 / (1u32 << 24) as f64);
-        if u.abs() < t.ratio[i] {
-            return u * t.x[i];
-        }
-        match slow_path(t, rng, i, u) {
-            Some(x) => x,
-            None => self.sample(rng),
-        }
-    }
-}
-
-/// One standard normal draw (takes the tables on every call: use [`Ziggurat`] in loops).
-#[inline]
-pub fn standard_normal<G: RngCore + ?Sized>(rng: &mut G) -> f64 {
-    ziggurat().sample(rng)
-}
-
-/// Outside a layer's rectangle: the tail (layer 0) or the wedge test; `None` means draw again.
-#[cold]
-#[inline(never)]
-fn slow_path<G: RngCore + ?Sized>(t: &Tables, rng: &mut G, i: usize, u: f64) -> Option<f64> {
-    if i == 0 {
-        return Some(tail(rng, u < 0.0));
-    }
-    let x = u * t.x[i];
-    let f0 = (-0.5 * (t.x[i] * t.x[i] - x * x)).exp();
-    let f1 = (-0.5 * (t.x[i + 1] * t.x[i + 1] - x * x)).exp();
-    (f1 + unit(rng.next_u64()) * (f0 - f1) < 1.0).then_some(x)
-}
-
-/// The tail beyond `R` (Marsaglia 1964).
-#[cold]
-fn tail<G: RngCore + ?Sized>(rng: &mut G, negative: bool) -> f64 {
-    loop {
-        // 1 − unit() is in (0, 1]: the logarithm is finite.
-        let x = (1.0 - unit(rng.next_u64())).ln() / R;
-        let y = (1.0 - unit(rng.next_u64())).ln();
-        if -2.0 * y >= x * x {
-            return if negative { x - R } else { R - x };
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -300,65 +176,6 @@ mod tests {
         ours.jump();
         theirs.jump();
         assert_eq!(ours.next_u64(), theirs.next_u64());
-    }
-
-    #[test]
-    fn moments_and_tails_of_a_million_draws() {
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(42);
-        let n = 1_000_000;
-        let (mut s1, mut s2, mut s3, mut s4) = (0.0, 0.0, 0.0, 0.0);
-        let (mut beyond2, mut beyond3, mut beyond4) = (0usize, 0usize, 0usize);
-        for _ in 0..n {
-            let x = standard_normal(&mut rng);
-            s1 += x;
-            s2 += x * x;
-            s3 += x * x * x;
-            s4 += x * x * x * x;
-            beyond2 += (x.abs() > 2.0) as usize;
-            beyond3 += (x.abs() > 3.0) as usize;
-            beyond4 += (x.abs() > R) as usize;
-        }
-        let nf = n as f64;
-        // Standard errors: mean 1e-3, variance 1.4e-3, skewness 2.4e-3, kurtosis 4.9e-3 (×5 here).
-        assert!((s1 / nf).abs() < 5e-3, "mean {}", s1 / nf);
-        assert!((s2 / nf - 1.0).abs() < 7e-3, "variance {}", s2 / nf);
-        assert!((s3 / nf).abs() < 1.2e-2, "third moment {}", s3 / nf);
-        assert!((s4 / nf - 3.0).abs() < 5e-2, "fourth moment {}", s4 / nf);
-        // P(|x| > 2) = 0.0455, P(|x| > 3) = 0.0027, P(|x| > R) = 5.76e-4.
-        assert!((beyond2 as f64 / nf - 0.0455).abs() < 1.2e-3);
-        assert!((beyond3 as f64 / nf - 0.0027).abs() < 2.6e-4);
-        assert!(
-            (beyond4 as f64 / nf - 5.76e-4).abs() < 1.2e-4,
-            "tail {}",
-            beyond4 as f64 / nf
-        );
-    }
-
-    #[test]
-    fn pairs_have_the_same_distribution() {
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
-        let z = ziggurat();
-        let n = 500_000;
-        let (mut s1, mut s2, mut s4, mut cross, mut beyond3) = (0.0, 0.0, 0.0, 0.0, 0usize);
-        for _ in 0..n {
-            let (a, b) = z.sample_pair(&mut rng);
-            for x in [a, b] {
-                s1 += x;
-                s2 += x * x;
-                s4 += x * x * x * x;
-                beyond3 += (x.abs() > 3.0) as usize;
-            }
-            cross += a * b;
-        }
-        let m = 2.0 * n as f64;
-        assert!((s1 / m).abs() < 5e-3);
-        assert!((s2 / m - 1.0).abs() < 7e-3, "variance {}", s2 / m);
-        assert!((s4 / m - 3.0).abs() < 5e-2, "fourth moment {}", s4 / m);
-        assert!(
-            (cross / n as f64).abs() < 7e-3,
-            "the two halves are independent"
-        );
-        assert!((beyond3 as f64 / m - 0.0027).abs() < 3e-4);
     }
 
     /// Published FNV-1a and SplitMix64 values, and the seeds and hashes this project has always
@@ -399,17 +216,5 @@ mod tests {
         b.dedup();
         assert_eq!(a.len(), b.len());
         assert_ne!(derive_seed(1, 0), derive_seed(2, 0));
-    }
-
-    #[test]
-    fn deterministic_for_a_seed() {
-        let draw = |seed| {
-            let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-            (0..10)
-                .map(|_| standard_normal(&mut rng))
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(draw(1), draw(1));
-        assert_ne!(draw(1), draw(2));
     }
 }
