@@ -58,9 +58,8 @@ from pathlib import Path
 import numpy as np
 from vqf import VQF, offlineVQF
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients" / "python"))
-from broad_replay import broad_rmse as broad_metric, invquat, quatmult  # noqa: E402
-from broad_replay import load_trial as read_trial  # noqa: E402
+from attitude_client.replay import broad_rmse as broad_metric, invquat, quatmult  # noqa: E402
+from attitude_client.replay import load_trial as read_trial  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 ATTRIBUTION = (
@@ -100,7 +99,7 @@ def rotate_heading(q_est: np.ndarray, angle_rad: float) -> np.ndarray:
 
 def broad_rmse(q_est: np.ndarray, q_opt: np.ndarray, movement: np.ndarray) -> dict:
     """Total/heading/inclination RMSE in degrees over `movement` (the BROAD metric, one implementation:
-    clients/python/broad_replay.py)."""
+    attitude_client.replay, clients/python)."""
     m = broad_metric(q_est, q_opt, movement)
     return {"total": m["total_rmse_deg"], "heading": m["heading_rmse_deg"], "inclination": m["inclination_rmse_deg"]}
 
@@ -120,7 +119,7 @@ def score(q_est: np.ndarray, trial: dict) -> dict:
 
 
 def load_trial(path: Path) -> dict:
-    """The trial as broad_replay reads it (one reader), which must have its truth and movement phases."""
+    """The trial as attitude-replay reads it (one reader), which must have its truth and movement phases."""
     trial = read_trial(path, None)
     if trial["opt_quat"] is None or trial["movement"] is None:
         raise SystemExit(f"{path}: opt_quat and movement are needed to score")

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Replays every BROAD trial of a directory through the real service (config/imu.json5) on P/V/imu with
-# clients/python/broad_replay.py and prints the markdown table of docs/broad.md: per trial the MEKF and
+# attitude-replay (clients/python) and prints the markdown table of docs/broad.md: per trial the MEKF and
 # qpf:average through the service (accuracy and honesty), VQF and Madgwick on the same samples, the
 # benchmark's published Madgwick, and the leave-one-out (held-out) total of the tuning record.
 #
@@ -29,7 +29,7 @@ TRIALS=()
 for f in "$DATA"/*.hdf5; do
   t=$(basename "$f" .hdf5)
   TRIALS+=("$t")
-  "$PY" clients/python/broad_replay.py "$f" --connect "tcp/127.0.0.1:$PORT" --particles 500 --tag "table${t%%_*}" \
+  "$PY" -m attitude_client.replay "$f" --connect "tcp/127.0.0.1:$PORT" --particles 500 --tag "table${t%%_*}" \
     --json --details "$OUT/$t.details.json" >"$OUT/$t.json"
 done
 kill $SERVICE

@@ -5,7 +5,7 @@
     .venv/bin/python scripts/broad-vqf-reference.py ../shared/data/broad/*.hdf5 --out config/imu-tuning-vqf.json
 
 VQF 2.x (PyPI `vqf`, Laidig & Seel 2023) with its defaults, online (`updateBatch`, 9D), scored with the metric of
-clients/python/broad_replay.py (BROAD's).
+attitude_client.replay (BROAD's).
 
 Data: BROAD (D. Laidig, M. Caruso, A. Cereatti, T. Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0.
 """
@@ -18,8 +18,7 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients" / "python"))
-from broad_replay import ATTRIBUTION, broad_scores, load_trial, run_vqf  # noqa: E402
+from attitude_client.replay import ATTRIBUTION, broad_scores, load_trial, run_vqf  # noqa: E402
 
 
 def main() -> int:

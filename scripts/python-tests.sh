@@ -49,6 +49,21 @@ then
   "$PY" -m pip install -q --disable-pip-version-check "${PACKAGES[@]}"
 fi
 
+# The Python client package (clients/python), installed editable from this tree: the tests import it as a
+# user does. Reinstalled when the venv's copy points elsewhere (a venv copied from another checkout).
+if ! "$PY" - "$ROOT/clients/python/src" <<'PYEOF'
+import pathlib, sys
+try:
+    import attitude_client
+except ImportError:
+    sys.exit(1)
+sys.exit(0 if pathlib.Path(attitude_client.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()) else 1)
+PYEOF
+then
+  echo "python-tests: installing clients/python (editable)" >&2
+  "$PY" -m pip install -q --disable-pip-version-check --no-deps -e "$ROOT/clients/python"
+fi
+
 BIN="$ROOT/target/release/attitude-service"
 if [[ ! -x "$BIN" ]]; then
   echo "python-tests: $BIN is missing; building it" >&2

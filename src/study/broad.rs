@@ -1,6 +1,6 @@
 //! Scores of an attitude estimate against an optical truth, as the BROAD benchmark defines them, and how
 //! honest the estimate's covariance is about its error. The Python replay client
-//! (`clients/python/broad_replay.py`) computes the same figures; `tests/python/test_broad_metric.py` holds the
+//! (`attitude-replay`, `clients/python/src/attitude_client/replay.py`) computes the same figures; `tests/python/test_broad_metric.py` holds the
 //! two together.
 //!
 //! **Accuracy** (BROAD's `example_code/broad_utils.py`): with the Hamilton quaternions of body → reference

@@ -21,10 +21,18 @@ from typing import Callable
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "clients" / "python"))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from attitude_client import AttitudeClient  # noqa: E402
+import attitude_client  # noqa: E402
+
+# The tests import the client package as a user does (scripts/python-tests.sh installs it editable); a copy
+# installed from another checkout would test the wrong code.
+if not pathlib.Path(attitude_client.__file__).resolve().is_relative_to(ROOT / "clients" / "python" / "src"):
+    raise ImportError(
+        f"attitude_client is imported from {attitude_client.__file__}, not from {ROOT / 'clients/python/src'}: "
+        "run the tests with scripts/python-tests.sh (it installs clients/python editable into .venv)"
+    )
 
 BIN = pathlib.Path(os.environ.get("ATTITUDE_SERVICE_BIN", ROOT / "target" / "release" / "attitude-service"))
 SCHEMAS = ROOT / "proto" / "schemas"

@@ -1,9 +1,9 @@
-"""One BROAD metric: clients/python/broad_replay.py's `broad_scores` gives the numbers of src/study/broad.rs.
+"""One BROAD metric: attitude_client.replay's `broad_scores` gives the numbers of src/study/broad.rs.
 
 `attitude-service imu-study` runs both committed excerpts (tests/data/broad/, exported by scripts/broad-export.py)
 through the service's vehicle pipeline, scores them in Rust and writes every sample's estimate (`--series`: q and the
 attitude covariance, printed to round-trip); `broad_scores` on those estimates, with the truth and `movement` as
-broad_replay reads them from the HDF5 files, must give the same accuracy and honesty figures. The MEKF and the QPF
+attitude_client.replay reads them from the HDF5 files, must give the same accuracy and honesty figures. The MEKF and the QPF
 (their covariances differ in shape: the QPF's is a particle spread). Measured agreement: 4e-14 at most.
 
 Data: BROAD (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0.
@@ -18,7 +18,7 @@ import sys
 import numpy as np
 import pytest
 
-from broad_replay import ACCURACY_KEYS, HONESTY_KEYS, broad_scores, load_trial, quatmult
+from attitude_client.replay import ACCURACY_KEYS, HONESTY_KEYS, broad_scores, load_trial, quatmult
 from conftest import BIN, ROOT
 
 DATA = ROOT / "tests" / "data" / "broad"

@@ -1,4 +1,4 @@
-"""The BROAD replay end to end: the real binary with config/imu.json5, clients/python/broad_replay.py over zenoh.
+"""The BROAD replay end to end: the real binary with config/imu.json5, attitude-replay (the client package's `attitude_client.replay`) over zenoh.
 
 Replays both committed excerpts (tests/data/broad/: trial 16, fast translations; trial 34, a magnet attached 3 cm
 from the sensor) through one service on `P/V/imu`, with the MEKF and the QPF (200 particles; its seed derives from
@@ -38,11 +38,10 @@ import sys
 import h5py
 import pytest
 
-from broad_replay import ACCURACY_KEYS, HONESTY_KEYS
+from attitude_client.replay import ACCURACY_KEYS, HONESTY_KEYS
 from conftest import BIN, ROOT, free_port
 
 DATA = ROOT / "tests" / "data" / "broad"
-SCRIPT = ROOT / "clients" / "python" / "broad_replay.py"
 OURS = ("mekf", "qpf:average")
 #: Most total RMSE as a multiple of VQF's on the same samples, per excerpt and filter.
 MAX_TOTAL_VS_VQF = {
@@ -85,7 +84,7 @@ def test_broad_excerpt_through_the_service(imu_service, tmp_path, name):
     with h5py.File(trial, "r") as f:
         n, rate = len(f["imu_gyr"]), float(f.attrs["sampling_rate"])
     out = subprocess.run(
-        [sys.executable, str(SCRIPT), str(trial), "--connect", endpoint, "--json", "--particles", "200",
+        [sys.executable, "-m", "attitude_client.replay", str(trial), "--connect", endpoint, "--json", "--particles", "200",
          "--tag", f"pytest{name[:2]}", "--details", str(tmp_path / "details.json")],
         capture_output=True,
         text=True,

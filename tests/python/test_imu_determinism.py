@@ -33,9 +33,8 @@ import numpy as np
 
 from conftest import BIN, ROOT, free_port
 
-sys.path.insert(0, str(ROOT / "clients" / "python"))
 from attitude_client import AttitudeClient  # noqa: E402
-from broad_replay import load_trial, replay  # noqa: E402
+from attitude_client.replay import load_trial, replay  # noqa: E402
 
 TRIAL = Path(
     os.environ.get("ATTITUDE_DETERMINISM_TRIAL")
@@ -49,7 +48,7 @@ SPECS = ["mekf", "qpf:average"]
 def start(tmp_path, name: str):
     preset = (ROOT / "config" / "imu.json5").read_text()
     assert "    vehicles: {}," in preset
-    # The particle filter's vehicle by configuration (broad_replay names it broad-qpf-average-TAG).
+    # The particle filter's vehicle by configuration (attitude-replay names it broad-qpf-average-TAG).
     config = preset.replace(
         "    vehicles: {},", '    vehicles: { "broad-qpf-average-det": { kind: "qpf", particles: 200 } },'
     )

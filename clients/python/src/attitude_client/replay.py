@@ -1,8 +1,10 @@
-#!/usr/bin/env python3
 """Replays a recorded IMU trial (BROAD benchmark HDF5) through a running attitude-service and scores it.
 
     attitude-service serve --config config/imu.json5 --listen tcp/127.0.0.1:7447      # the user runs this
-    python clients/python/broad_replay.py TRIAL.hdf5 --connect tcp/127.0.0.1:7447 [--json]
+    attitude-replay TRIAL.hdf5 --connect tcp/127.0.0.1:7447 [--json]      # or: python -m attitude_client.replay
+
+(installed with the package; the trial reader and the two peers need the ``replay`` extra:
+``pip install 'attitude-client[replay]'``, i.e. h5py, vqf and ahrs).
 
 What it does (it never starts the service):
 
@@ -59,12 +61,10 @@ import threading
 import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 import zenoh
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from attitude_client import AttitudeClient  # noqa: E402
+from .client import AttitudeClient
 
 ATTRIBUTION = (
     "Data: BROAD (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0."
@@ -205,6 +205,10 @@ def broad_rmse(q_est: np.ndarray, q_opt: np.ndarray, movement: np.ndarray) -> di
 
 def load_trial(path: Path, excerpt_seconds: float | None) -> dict:
     """The trial, its IMU channels as float64; ``t`` from the attribute ``first_sample`` (0 when absent)."""
+    try:
+        import h5py
+    except ImportError as e:
+        raise SystemExit("reading a trial needs h5py: pip install 'attitude-client[replay]'") from e
     with h5py.File(path, "r") as f:
         trial = {
             "name": path.stem,

@@ -1,6 +1,4 @@
-"""Python client of the attitude service (contract v1, ``proto/README.md``).
-
-A thin, synchronous wrapper around a zenoh session that speaks the service's JSON messages::
+"""The client: a zenoh session speaking the attitude service's JSON messages (contract v1, ``proto/README.md``).
 
     from attitude_client import AttitudeClient
     with AttitudeClient("tcp/127.0.0.1:7447") as client:
@@ -8,33 +6,38 @@ A thin, synchronous wrapper around a zenoh session that speaks the service's JSO
         client.reset("sc1", filter="mekf", q=(1, 0, 0, 0), sigma_deg=0.1, t=0.0)
         print(client.get_attitude("sc1"))  # {'vehicle': 'sc1', 't': 0.0, 'q': {'w': 1.0, ..}, 'sigma_deg': [..]}
 
+Two levels. The typed one speaks numpy: :meth:`AttitudeClient.estimate` returns an
+:class:`~attitude_client.Estimate` (``q`` as ``[w, x, y, z]``, ``cov`` 6×6, ``.rotation()`` for SciPy),
+:meth:`AttitudeClient.estimates` iterates over estimates as they are published (also ``async for``), and
+:meth:`AttitudeClient.publish_imu` takes one sample or whole arrays (``t`` (n,), ``gyr``/``acc``/``mag``
+(n, 3)), batched for you. The wire level returns the service's JSON as parsed: ``get_attitude``,
+``get_state``, ``get_all``, ``vehicles``, ``health``, ``reset`` and the ``subscribe_*`` callbacks.
+
 Measurements go in with ``publish_gyro(vehicle, t, omega)`` / ``publish_gyro_batch`` and
 ``publish_vectors(vehicle, t, [(body, ref, sigma), ...])`` / ``publish_vectors_batch``, or, for a vehicle
-with a raw IMU, ``publish_imu(vehicle, t, gyr, acc, mag)`` / ``publish_imu_batch`` instead (the service
-derives the references and noise models itself; a vehicle is fed either gyro samples or IMU samples,
-never both); every estimate comes out on ``subscribe_estimates(callback)``. Puts are asynchronous: the service processes them after
-they arrive, so a query right after a put may not reflect it yet (wait for its estimate instead). On a new
-session, call :meth:`AttitudeClient.wait_for_service` before publishing: zenoh drops puts that it does not
-know a subscriber for yet.
+with a raw IMU, ``publish_imu(vehicle, t, gyr, acc, mag)`` instead (the service derives the references and
+noise models itself; a vehicle is fed either gyro samples or IMU samples, never both). Every vector accepts
+a list, a tuple or a numpy array. Puts are asynchronous: the service processes them after they arrive, so
+a query right after a put may not reflect it yet (wait for its estimate instead). On a new session, call
+:meth:`AttitudeClient.wait_for_service` before publishing: zenoh drops puts that it does not know a
+subscriber for yet.
 
 Keys are ``P/V/<leaf>`` with ``P`` the service's key prefix (``prefix``, default ``attitude``) and ``V`` a
-vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). Quaternions are ``{"w", "x", "y", "z"}``: the
-orientation of the body in the reference frame (Hamilton), i.e. ``b = A(q) r`` with ``A(q)`` the transpose
-of the Hamilton rotation matrix of ``q``. Replies normalise ``w >= 0``.
+vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). Quaternions on the wire are ``{"w", "x", "y", "z"}``:
+the orientation of the body in the reference frame (Hamilton), i.e. ``b = A(q) r`` with ``A(q)`` the
+transpose of the Hamilton rotation matrix of ``q``. Replies normalise ``w >= 0``.
 
-Queries return the parsed JSON reply (``dict`` / ``list``). An error reply of the service raises
-:class:`ServiceError` (``code``, ``message``, ``key``; codes are listed in ``proto/README.md``, e.g.
-``unknown_vehicle``, ``not_initialized``, ``bad_request``); a query that nobody answers before its timeout
-raises :class:`TimeoutError`. Concrete queries are retried until their timeout when no queryable is
-reachable yet (right after the session opens, before zenoh has propagated the service's declarations), so
-a client may be created before the service runs; :meth:`AttitudeClient.wait_for_service` waits explicitly.
+Queries raise :class:`ServiceError` for an error reply of the service (``code``, ``message``, ``key``;
+codes are listed in ``proto/README.md``, e.g. ``unknown_vehicle``, ``not_initialized``, ``bad_request``);
+a query that nobody answers before its timeout raises :class:`TimeoutError`. Concrete queries are retried
+until their timeout when no queryable is reachable yet (right after the session opens, before zenoh has
+propagated the service's declarations), so a client may be created before the service runs;
+:meth:`AttitudeClient.wait_for_service` waits explicitly.
 
 Subscription callbacks run on zenoh's threads: keep them short (append to a list, put into a
-``queue.Queue``) and never call blocking client methods from them. Close the client (or use it as a
-context manager); a client still open when the interpreter exits is closed then, because zenoh's
-callback thread would otherwise keep the process alive.
-
-Runtime dependencies: the Python standard library and ``eclipse-zenoh`` (tested with 1.10.2).
+``queue.Queue``) and never call blocking client methods from them (:meth:`AttitudeClient.estimates` does
+that for you). Close the client (or use it as a context manager); a client still open when the
+interpreter exits is closed then, because zenoh's callback thread would otherwise keep the process alive.
 """
 
 from __future__ import annotations
@@ -47,9 +50,13 @@ import time
 import weakref
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+import numpy as np
 import zenoh
 
-__all__ = ["AttitudeClient", "ServiceError", "KINDS", "attitude_error_deg"]
+from .estimate import Estimate
+from .stream import EstimateStream
+
+__all__ = ["AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "attitude_error_deg"]
 
 log = logging.getLogger("attitude_client")
 
@@ -57,6 +64,10 @@ log = logging.getLogger("attitude_client")
 KINDS = ("attitude", "covariance", "state")
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
+
+#: IMU samples per put when :meth:`AttitudeClient.publish_imu` is given arrays: about 150 bytes each,
+#: well inside the service's default ``limits.input`` (1 MiB, 10 000 items per batch).
+IMU_BATCH = 500
 
 
 class ServiceError(Exception):
@@ -101,6 +112,18 @@ def _imu_sample(t: float, gyr: Any, acc: Any, mag: Any = None) -> dict:
     if mag is not None:
         sample["mag"] = _vec3(mag, "mag")
     return sample
+
+
+def _rows(value: Any, n: int, what: str, nan_rows: bool = False) -> np.ndarray:
+    """An (n, 3) float array of ``n`` samples' vectors."""
+    a = np.asarray(value, dtype=float)
+    if a.shape != (n, 3):
+        raise ValueError(f"{what} must have shape ({n}, 3) for {n} times, got {a.shape}")
+    if nan_rows:
+        partial = np.isfinite(a).any(axis=1) & ~np.isfinite(a).all(axis=1)
+        if partial.any():
+            raise ValueError(f"{what}: row {int(np.argmax(partial))} is partly non-finite (a whole NaN row leaves it out)")
+    return a
 
 
 def _quaternion(q: Any) -> dict:
@@ -210,9 +233,24 @@ class AttitudeClient:
             congestion_control=zenoh.CongestionControl.BLOCK,
         )
 
-    def publish_gyro(self, vehicle: str, t: float, omega: Sequence[float]) -> None:
-        """One gyro sample: time ``t`` (s, the sender's clock), body rate ``omega`` (rad/s)."""
-        self.put_raw(vehicle, "gyro", _dumps({"t": float(t), "omega": _vec3(omega, "omega")}))
+    def publish_gyro(
+        self, vehicle: str, t: float | Sequence[float] | np.ndarray, omega: Sequence[float] | np.ndarray, batch: int = IMU_BATCH
+    ) -> int:
+        """Gyro samples: time ``t`` (s, the sender's clock), body rate ``omega`` (rad/s). One sample (``t`` a
+        number) or many (``t`` of shape (n,), ``omega`` (n, 3)), sent in order, ``batch`` per message.
+        Returns the number of samples sent."""
+        ts = np.asarray(t, dtype=float)
+        if ts.ndim == 0:
+            self.put_raw(vehicle, "gyro", _dumps({"t": float(ts), "omega": _vec3(omega, "omega")}))
+            return 1
+        if ts.ndim != 1 or ts.shape[0] == 0:
+            raise ValueError(f"t must be a number or a non-empty 1-D array, got shape {ts.shape}")
+        w = _rows(omega, ts.shape[0], "omega")
+        tl, wl = ts.tolist(), w.tolist()
+        for start in range(0, len(tl), max(1, batch)):
+            stop = start + max(1, batch)
+            self.put_raw(vehicle, "gyro", _dumps([{"t": a, "omega": b} for a, b in zip(tl[start:stop], wl[start:stop])]))
+        return len(tl)
 
     def publish_gyro_batch(self, vehicle: str, samples: Iterable[tuple[float, Sequence[float]]]) -> None:
         """Gyro samples ``[(t, omega), ...]`` in one message (processed in order)."""
@@ -237,15 +275,45 @@ class AttitudeClient:
     def publish_imu(
         self,
         vehicle: str,
-        t: float,
-        gyr: Sequence[float],
-        acc: Sequence[float],
-        mag: Sequence[float] | None = None,
-    ) -> None:
-        """One raw IMU sample at ``t`` (s), body frame: rate ``gyr`` (rad/s, covering the interval since
-        the vehicle's previous sample), specific force ``acc`` (m/s²) and, optionally, the magnetic field
-        ``mag`` (any unit, the same throughout)."""
-        self.put_raw(vehicle, "imu", _dumps(_imu_sample(t, gyr, acc, mag)))
+        t: float | Sequence[float] | np.ndarray,
+        gyr: Sequence[float] | np.ndarray,
+        acc: Sequence[float] | np.ndarray,
+        mag: Sequence[float] | np.ndarray | None = None,
+        batch: int = IMU_BATCH,
+    ) -> int:
+        """Raw IMU samples, body frame: rate ``gyr`` (rad/s, covering the interval since the vehicle's
+        previous sample), specific force ``acc`` (m/s²) and, optionally, the magnetic field ``mag`` (any
+        unit, the same throughout), at times ``t`` (s, increasing).
+
+        One sample (``t`` a number, vectors of 3) or many: ``t`` of shape (n,), the vectors (n, 3) (a row
+        of NaN in ``mag`` leaves the field out of that sample). Many samples are sent in order, ``batch``
+        per message. Returns the number of samples sent. Non-finite values in ``t``, ``gyr`` or ``acc``
+        raise ValueError before anything is sent."""
+        ts = np.asarray(t, dtype=float)
+        if ts.ndim == 0:
+            self.put_raw(vehicle, "imu", _dumps(_imu_sample(float(ts), gyr, acc, mag)))
+            return 1
+        n = ts.shape[0]
+        g = _rows(gyr, n, "gyr")
+        a = _rows(acc, n, "acc")
+        m = None if mag is None else _rows(mag, n, "mag", nan_rows=True)
+        if ts.ndim != 1 or n == 0:
+            raise ValueError(f"t must be a number or a non-empty 1-D array, got shape {ts.shape}")
+        if not (np.isfinite(ts).all() and np.isfinite(g).all() and np.isfinite(a).all()):
+            raise ValueError("t, gyr and acc must be finite")
+        if batch < 1:
+            raise ValueError("batch must be at least 1")
+        tl, gl, al = ts.tolist(), g.tolist(), a.tolist()
+        ml = None if m is None else m.tolist()
+        for start in range(0, n, batch):
+            items = []
+            for k in range(start, min(n, start + batch)):
+                sample = {"t": tl[k], "gyr": gl[k], "acc": al[k]}
+                if ml is not None and all(math.isfinite(c) for c in ml[k]):
+                    sample["mag"] = ml[k]
+                items.append(sample)
+            self.put_raw(vehicle, "imu", _dumps(items))
+        return n
 
     def publish_imu_batch(self, vehicle: str, samples: Iterable[Sequence[Any]]) -> None:
         """Raw IMU samples ``[(t, gyr, acc), ...]`` or ``[(t, gyr, acc, mag), ...]`` (``mag`` may be None)
@@ -254,6 +322,24 @@ class AttitudeClient:
         if not batch:
             raise ValueError("empty IMU batch")
         self.put_raw(vehicle, "imu", _dumps(batch))
+
+    # ------------------------------------------------------------------------------------------
+    # Typed results (numpy)
+
+    def estimate(self, vehicle: str, timeout: float | None = None) -> Estimate:
+        """``vehicle``'s latest estimate as an :class:`Estimate` (``q``, ``cov``, ``sigma_deg``, ``bias``,
+        ``t``, ``diagnostics``)."""
+        return Estimate.from_json(self.get_state(vehicle, timeout=timeout))
+
+    def estimates(
+        self, vehicles: str = "*", maxsize: int = 1024, timeout: float | None = None
+    ) -> EstimateStream:
+        """The estimates of ``vehicles`` (an id or a key pattern such as ``*`` or ``sat-*``) as they are
+        published, from now on: iterate the returned :class:`EstimateStream` (``for e in ...`` or ``async
+        for e in ...``); close it, or use it as a context manager, to stop. Never holds up the service:
+        beyond ``maxsize`` unread estimates the oldest are dropped (``stream.dropped`` counts them).
+        ``timeout``: end the iteration after that many seconds without an estimate (None: never)."""
+        return EstimateStream(self.session, self.key(vehicles, "estimate"), maxsize=maxsize, timeout=timeout)
 
     # ------------------------------------------------------------------------------------------
     # Queries
@@ -430,7 +516,14 @@ def _close_at_exit(ref: "weakref.ref[AttitudeClient]") -> None:
             pass
 
 
-def attitude_error_deg(q_true: Mapping[str, float], q_est: Mapping[str, float]) -> float:
-    """Angle (deg) of the rotation between two wire quaternions: ``2·acos(|w|)`` of ``q_est⁻¹ · q_true``."""
-    dot = sum(q_true[k] * q_est[k] for k in ("w", "x", "y", "z"))
+def attitude_error_deg(q_true: Any, q_est: Any) -> float:
+    """Angle (deg) of the rotation between two quaternions: ``2·acos(|w|)`` of ``q_est⁻¹ · q_true``. Each is a
+    wire quaternion (``{w, x, y, z}``) or a sequence / array ``[w, x, y, z]``."""
+
+    def wxyz(q: Any) -> list[float]:
+        if isinstance(q, Mapping):
+            return [float(q[k]) for k in ("w", "x", "y", "z")]
+        return [float(c) for c in q]
+
+    dot = sum(a * b for a, b in zip(wxyz(q_true), wxyz(q_est)))
     return math.degrees(2.0 * math.acos(min(1.0, abs(dot))))
