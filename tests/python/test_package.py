@@ -167,6 +167,25 @@ def test_a_reader_that_falls_behind_drops_its_oldest_and_never_holds_up_the_serv
     assert [e.t for e in kept] == [37.0, 38.0, 39.0, 40.0]
 
 
+def test_messages_follow_several_leaves_in_one_stream(client):
+    """`client.messages(("estimate", "rejected"))`: one buffer, arrival order, the concrete key with each message
+    (what attitude-view reads): an estimate, then the rejection of a set that refers to an older time."""
+    vehicle = "pkg-msgs"
+    client.reset(vehicle, filter="mekf")
+    with client.messages(("estimate", "rejected"), vehicles=vehicle, timeout=5.0) as stream:
+        assert stream.keys == (f"{client.prefix}/{vehicle}/estimate", f"{client.prefix}/{vehicle}/rejected")
+        client.health()
+        client.publish_vectors(vehicle, *_spacecraft_sets(5))
+        first = stream.get(timeout=5.0)
+        client.publish_vectors(vehicle, *_spacecraft_sets(2))
+        second = stream.get(timeout=5.0)
+    assert first[0] == f"{client.prefix}/{vehicle}/estimate" and first[1]["t"] == 5.0
+    assert second[0] == f"{client.prefix}/{vehicle}/rejected" and second[1]["code"] == "out_of_order"
+    assert stream.dropped == 0 and stream.malformed == 0
+    with pytest.raises(ValueError, match="leaf"):
+        client.messages(("*",))
+
+
 def test_the_wheel_is_typed_and_installs_its_scripts(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(PACKAGE)],

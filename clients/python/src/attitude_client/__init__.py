@@ -14,7 +14,7 @@ from importlib import metadata as _metadata
 
 from .client import IMU_BATCH, KINDS, AttitudeClient, ServiceError, attitude_error_deg
 from .estimate import Estimate, attitude_matrix
-from .stream import EstimateStream
+from .stream import EstimateStream, MessageStream
 
 try:
     __version__ = _metadata.version("attitude-client")
@@ -27,6 +27,7 @@ __all__ = [
     "EstimateStream",
     "IMU_BATCH",
     "KINDS",
+    "MessageStream",
     "ServiceError",
     "attitude_error_deg",
     "attitude_matrix",

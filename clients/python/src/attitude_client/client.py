@@ -54,7 +54,7 @@ import numpy as np
 import zenoh
 
 from .estimate import Estimate
-from .stream import EstimateStream
+from .stream import EstimateStream, MessageStream
 
 __all__ = ["AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "attitude_error_deg"]
 
@@ -340,6 +340,25 @@ class AttitudeClient:
         beyond ``maxsize`` unread estimates the oldest are dropped (``stream.dropped`` counts them).
         ``timeout``: end the iteration after that many seconds without an estimate (None: never)."""
         return EstimateStream(self.session, self.key(vehicles, "estimate"), maxsize=maxsize, timeout=timeout)
+
+    def messages(
+        self,
+        leaves: Sequence[str] = ("estimate",),
+        vehicles: str = "*",
+        maxsize: int = 1024,
+        timeout: float | None = None,
+    ) -> MessageStream:
+        """The messages published on ``P/<vehicles>/<leaf>`` for each of ``leaves`` (``"estimate"``,
+        ``"rejected"``, ``"truth"``), from now on, in one :class:`MessageStream` in arrival order: iterate
+        it for ``(key, message)`` pairs, the concrete key (``P/sc1/truth``) and the JSON as parsed. Never
+        holds up the service: beyond ``maxsize`` unread messages the oldest are dropped (``.dropped``)."""
+        if isinstance(leaves, str):
+            leaves = (leaves,)
+        for leaf in leaves:
+            if not leaf or any(c in leaf for c in "/*$?#"):
+                raise ValueError(f"a leaf is one key chunk without wildcards, got {leaf!r}")
+        keys = [self.key(vehicles, leaf) for leaf in leaves]
+        return MessageStream(self.session, keys, maxsize=maxsize, timeout=timeout)
 
     # ------------------------------------------------------------------------------------------
     # Queries

@@ -1,9 +1,15 @@
-"""Estimates as an iterator and an async iterator, bridged from zenoh's callbacks.
+"""Estimates (or any of the service's JSON messages) as an iterator and an async iterator, bridged from
+zenoh's callbacks.
 
-zenoh calls the subscriber's callback on its own thread. The callback here only appends the payload to a
-bounded buffer and never waits: when the consumer falls behind, the oldest estimates are dropped (and
-counted in :attr:`EstimateStream.dropped`), so a slow script never slows zenoh, the network or the
-service. The JSON is parsed by the consumer, not on zenoh's thread.
+zenoh calls the subscriber's callback on its own thread. The callback here only appends the key and the
+payload to a bounded buffer and never waits: when the consumer falls behind, the oldest messages are
+dropped (and counted in :attr:`MessageStream.dropped`), so a slow script never slows zenoh, the network or
+the service. The JSON is parsed by the consumer, not on zenoh's thread.
+
+:class:`MessageStream` follows one or more key expressions in one buffer, in arrival order, and yields
+``(key, message)`` with the message as parsed JSON (``P/V/truth``, ``P/V/rejected``, ``P/V/estimate`` side
+by side: what ``attitude-view`` reads); :class:`EstimateStream` follows ``P/V/estimate`` and yields
+:class:`~attitude_client.Estimate` values.
 """
 
 from __future__ import annotations
@@ -14,54 +20,62 @@ import json
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING, Any, AsyncIterator, Iterator
+from typing import TYPE_CHECKING, Any, AsyncIterator, Generic, Iterator, Sequence, TypeVar
 
 from .estimate import Estimate
 
 if TYPE_CHECKING:
     import zenoh
 
-__all__ = ["EstimateStream"]
+__all__ = ["EstimateStream", "MessageStream"]
 
 log = logging.getLogger("attitude_client")
 
 
-class EstimateStream(Iterator[Estimate], AsyncIterator[Estimate]):
-    """Estimates published on ``key`` (``P/<vehicles>/estimate``), in arrival order.
+T = TypeVar("T")
 
-    Iterate it (``for e in stream``) or, inside asyncio, ``async for e in stream``; both block until the
-    next estimate. ``timeout`` (s) ends the iteration (``StopIteration`` / ``StopAsyncIteration``) when
-    nothing comes for that long; ``None`` waits for ever. ``maxsize`` bounds the buffer; what overflows
-    it is dropped, oldest first. Close it (or use it as a context manager) to undeclare the subscriber.
-    """
 
-    def __init__(self, session: "zenoh.Session", key: str, maxsize: int = 1024, timeout: float | None = None):
+class _Stream(Generic[T]):
+    """The buffer and the two iterator protocols; :meth:`_parse` turns ``(key, payload)`` into an item
+    (``None``: not one, counted in :attr:`malformed` and skipped)."""
+
+    def __init__(
+        self, session: "zenoh.Session", keys: Sequence[str], maxsize: int = 1024, timeout: float | None = None
+    ):
         if maxsize < 1:
             raise ValueError("maxsize must be at least 1")
-        self.key = key
+        if not keys:
+            raise ValueError("at least one key expression is required")
+        self.keys = tuple(keys)
         self.maxsize = int(maxsize)
         self.timeout = timeout
-        #: Estimates dropped because the buffer was full (the consumer was slower than the service).
+        #: Messages dropped because the buffer was full (the consumer was slower than the service).
         self.dropped = 0
-        #: Payloads that were not an estimate (not JSON, or without its fields).
+        #: Payloads that were not what the stream yields (not JSON, or an estimate without its fields).
         self.malformed = 0
-        self._buffer: collections.deque[bytes] = collections.deque()
+        self._buffer: collections.deque[tuple[str, bytes]] = collections.deque()
         self._cond = threading.Condition()
         self._closed = False
         # asyncio consumers: (loop, event) to wake with call_soon_threadsafe.
         self._waiters: list[tuple[asyncio.AbstractEventLoop, asyncio.Event]] = []
-        self._subscriber = session.declare_subscriber(key, self._on_sample)
+        self._subscribers = []
+        try:
+            for key in self.keys:
+                self._subscribers.append(session.declare_subscriber(key, self._on_sample))
+        except Exception:
+            self.close()
+            raise
 
     # -- zenoh's thread: append and wake, nothing else ------------------------------------------------
     def _on_sample(self, sample: Any) -> None:
-        payload = sample.payload.to_bytes()
+        item = (str(sample.key_expr), sample.payload.to_bytes())
         with self._cond:
             if self._closed:
                 return
             if len(self._buffer) >= self.maxsize:
                 self._buffer.popleft()
                 self.dropped += 1
-            self._buffer.append(payload)
+            self._buffer.append(item)
             self._cond.notify()
             waiters = list(self._waiters)
         for loop, event in waiters:
@@ -70,18 +84,13 @@ class EstimateStream(Iterator[Estimate], AsyncIterator[Estimate]):
             except RuntimeError:  # the loop was closed
                 pass
 
-    # -- the consumer -----------------------------------------------------------------------------
-    def _parse(self, payload: bytes) -> Estimate | None:
-        try:
-            return Estimate.from_json(json.loads(payload))
-        except (ValueError, KeyError, TypeError):
-            self.malformed += 1
-            log.warning("not an estimate on %s", self.key)
-            return None
+    def _parse(self, key: str, payload: bytes) -> T | None:  # pragma: no cover - overridden
+        raise NotImplementedError
 
-    def get(self, timeout: float | None = None) -> Estimate | None:
-        """The next estimate, waiting at most ``timeout`` s (``None``: for ever); ``None`` on timeout or
-        once the stream is closed and empty."""
+    # -- the consumer -----------------------------------------------------------------------------
+    def get(self, timeout: float | None = None) -> T | None:
+        """The next item, waiting at most ``timeout`` s (``None``: for ever); ``None`` on timeout or once
+        the stream is closed and empty."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             with self._cond:
@@ -92,40 +101,40 @@ class EstimateStream(Iterator[Estimate], AsyncIterator[Estimate]):
                     if remaining is not None and remaining <= 0:
                         return None
                     self._cond.wait(remaining)
-                payload = self._buffer.popleft()
-            e = self._parse(payload)
+                key, payload = self._buffer.popleft()
+            e = self._parse(key, payload)
             if e is not None:
                 return e
 
-    def get_nowait(self) -> Estimate | None:
-        """The next estimate if one is buffered, else ``None``."""
+    def get_nowait(self) -> T | None:
+        """The next item if one is buffered, else ``None``."""
         while True:
             with self._cond:
                 if not self._buffer:
                     return None
-                payload = self._buffer.popleft()
-            e = self._parse(payload)
+                key, payload = self._buffer.popleft()
+            e = self._parse(key, payload)
             if e is not None:
                 return e
 
     def __len__(self) -> int:
-        """Estimates buffered, not yet taken."""
+        """Messages buffered, not yet taken."""
         with self._cond:
             return len(self._buffer)
 
-    def __iter__(self) -> "EstimateStream":
+    def __iter__(self) -> "_Stream[T]":
         return self
 
-    def __next__(self) -> Estimate:
+    def __next__(self) -> T:
         e = self.get(self.timeout)
         if e is None:
             raise StopIteration
         return e
 
-    def __aiter__(self) -> "EstimateStream":
+    def __aiter__(self) -> "_Stream[T]":
         return self
 
-    async def __anext__(self) -> Estimate:
+    async def __anext__(self) -> T:
         loop = asyncio.get_running_loop()
         event = asyncio.Event()
         entry = (loop, event)
@@ -156,7 +165,7 @@ class EstimateStream(Iterator[Estimate], AsyncIterator[Estimate]):
 
     # -- life cycle ------------------------------------------------------------------------------
     def close(self) -> None:
-        """Undeclares the subscriber; what is buffered can still be taken."""
+        """Undeclares the subscribers; what is buffered can still be taken."""
         with self._cond:
             if self._closed:
                 return
@@ -168,13 +177,52 @@ class EstimateStream(Iterator[Estimate], AsyncIterator[Estimate]):
                 loop.call_soon_threadsafe(event.set)
             except RuntimeError:
                 pass
-        try:
-            self._subscriber.undeclare()
-        except Exception:  # the session may already be closed
-            pass
+        for subscriber in self._subscribers:
+            try:
+                subscriber.undeclare()
+            except Exception:  # the session may already be closed
+                pass
 
-    def __enter__(self) -> "EstimateStream":
+    def __enter__(self):
         return self
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+
+class EstimateStream(_Stream[Estimate], Iterator[Estimate], AsyncIterator[Estimate]):
+    """Estimates published on ``key`` (``P/<vehicles>/estimate``), in arrival order.
+
+    Iterate it (``for e in stream``) or, inside asyncio, ``async for e in stream``; both block until the
+    next estimate. ``timeout`` (s) ends the iteration (``StopIteration`` / ``StopAsyncIteration``) when
+    nothing comes for that long; ``None`` waits for ever. ``maxsize`` bounds the buffer; what overflows
+    it is dropped, oldest first. Close it (or use it as a context manager) to undeclare the subscriber.
+    """
+
+    def __init__(self, session: "zenoh.Session", key: str, maxsize: int = 1024, timeout: float | None = None):
+        self.key = key
+        super().__init__(session, [key], maxsize=maxsize, timeout=timeout)
+
+    def _parse(self, key: str, payload: bytes) -> Estimate | None:
+        try:
+            return Estimate.from_json(json.loads(payload))
+        except (ValueError, KeyError, TypeError):
+            self.malformed += 1
+            log.warning("not an estimate on %s", key)
+            return None
+
+
+class MessageStream(_Stream["tuple[str, Any]"], Iterator["tuple[str, Any]"], AsyncIterator["tuple[str, Any]"]):
+    """The messages published on one or more key expressions (e.g. ``P/*/estimate``, ``P/*/truth``,
+    ``P/*/rejected``), in one buffer, in arrival order, as ``(key, message)``: the concrete key the
+    message was put on and its JSON, parsed (by the consumer). Iteration, ``timeout``, ``maxsize`` and
+    dropping as for :class:`EstimateStream`; a payload that is not JSON is counted in :attr:`malformed`
+    and skipped."""
+
+    def _parse(self, key: str, payload: bytes) -> "tuple[str, Any] | None":
+        try:
+            return key, json.loads(payload)
+        except ValueError:
+            self.malformed += 1
+            log.warning("not JSON on %s", key)
+            return None
