@@ -25,6 +25,9 @@ PACKAGES=(
   "vqf==2.1.2"
   "h5py==3.16.0"
   "ahrs==0.3.1"
+  "foxglove-sdk==0.30.3"
+  "websockets==17.4"
+  "protobuf==7.36.2"
 )
 
 if [[ ! -x "$PY" ]]; then
@@ -50,14 +53,20 @@ then
 fi
 
 # The Python client package (clients/python), installed editable from this tree: the tests import it as a
-# user does. Reinstalled when the venv's copy points elsewhere (a venv copied from another checkout).
+# user does. Reinstalled when the venv's copy points elsewhere (a venv copied from another checkout) or lacks a
+# console script.
 if ! "$PY" - "$ROOT/clients/python/src" <<'PYEOF'
 import pathlib, sys
 try:
     import attitude_client
 except ImportError:
     sys.exit(1)
-sys.exit(0 if pathlib.Path(attitude_client.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()) else 1)
+from importlib import metadata
+if not pathlib.Path(attitude_client.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()):
+    sys.exit(1)
+# Every console script of pyproject.toml is installed (a venv from before a script was added lacks it).
+scripts = {e.name for e in metadata.distribution("attitude-client").entry_points if e.group == "console_scripts"}
+sys.exit(0 if {"attitude-replay", "attitude-view"} <= scripts else 1)
 PYEOF
 then
   echo "python-tests: installing clients/python (editable)" >&2

@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import math
 import re
+import signal
 import subprocess
 import sys
 import textwrap
@@ -19,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 import attitude_client
 from attitude_client import AttitudeClient, Estimate, attitude_matrix
-from conftest import ROOT, wait_until
+from conftest import ROOT, free_port, wait_until
 
 PACKAGE = ROOT / "clients" / "python"
 
@@ -194,16 +195,19 @@ def test_the_wheel_is_typed_and_installs_its_scripts(tmp_path):
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("attitude_client-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    for module in ("__init__", "client", "estimate", "stream", "replay"):
+    for module in ("__init__", "client", "estimate", "stream", "replay", "view"):
         assert f"attitude_client/{module}.py" in names
     assert "attitude_client/py.typed" in names
+    assert "attitude_client/layouts/demo.json" in names
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "attitude-replay = attitude_client.replay:main" in text
+    assert "attitude-view = attitude_client.view:main" in text
     metadata = zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith("METADATA"))).decode()
     assert re.search(r"^Requires-Dist: eclipse-zenoh", metadata, re.M)
     assert re.search(r"^Requires-Dist: numpy", metadata, re.M)
     assert re.search(r"^Requires-Dist: scipy.*extra == .scipy.", metadata, re.M)
+    assert re.search(r"^Requires-Dist: foxglove-sdk.*extra == .view.", metadata, re.M)
 
 
 def readme_example() -> str:
@@ -215,21 +219,28 @@ def readme_example() -> str:
     return block
 
 
-def test_the_readme_example_works_from_a_fresh_venv(service, client, tmp_path):
+@pytest.fixture(scope="module")
+def fresh_venv(tmp_path_factory):
     """`python3 -m venv` and `pip install './clients/python[scipy]'` as the README says (packages from PyPI, or
-    pip's cache), then the README's five lines against the service, with a vehicle sc1."""
+    pip's cache)."""
+    venv = tmp_path_factory.mktemp("fresh") / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=120)
+    out = subprocess.run(
+        [str(venv / "bin" / "python"), "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{PACKAGE}[scipy]"],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+    return venv
+
+
+def test_the_readme_example_works_from_a_fresh_venv(service, client, fresh_venv, tmp_path):
+    """The README's five lines from a fresh venv (`fresh_venv`) against the service, with a vehicle sc1."""
     example = readme_example()
     assert len(example.strip().splitlines()) == 5
     assert "pip install './clients/python[scipy]'" in (ROOT / "README.md").read_text()
     client.reset("sc1", filter="mekf", q=(math.cos(0.25), 0, 0, math.sin(0.25)), sigma_deg=0.5, t=0.0)
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=120)
+    venv = fresh_venv
     py = venv / "bin" / "python"
-    out = subprocess.run(
-        [str(py), "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{PACKAGE}[scipy]"],
-        capture_output=True, text=True, timeout=600,
-    )
-    assert out.returncode == 0, out.stdout + out.stderr
     code = example.replace(
         'AttitudeClient("tcp/127.0.0.1:7447")', f"AttitudeClient({service.endpoint!r}, prefix={service.prefix!r})"
     )
@@ -245,3 +256,4 @@ def test_the_readme_example_works_from_a_fresh_venv(service, client, tmp_path):
     assert str(venv) in where.stdout
     helped = subprocess.run([str(venv / "bin" / "attitude-replay"), "--help"], capture_output=True, text=True, timeout=60)
     assert helped.returncode == 0 and "--connect" in helped.stdout, helped.stderr
+
