@@ -257,3 +257,49 @@ def test_the_readme_example_works_from_a_fresh_venv(service, client, fresh_venv,
     helped = subprocess.run([str(venv / "bin" / "attitude-replay"), "--help"], capture_output=True, text=True, timeout=60)
     assert helped.returncode == 0 and "--connect" in helped.stdout, helped.stderr
 
+
+def test_the_view_extra_installs_in_the_fresh_venv(fresh_venv, tmp_path):
+    """`pip install './clients/python[view]'` as docs/view.md says (foxglove-sdk from PyPI, or pip's cache), into the
+    README's fresh venv: the installed attitude-view has its layout file, and its Foxglove server answers a client
+    (here with no service: it says so and serves anyway)."""
+    from foxglove_ws import FoxgloveClient
+
+    from attitude_client import view
+
+    assert "pip install './clients/python[view]'" in (ROOT / "docs" / "view.md").read_text()
+    py = fresh_venv / "bin" / "python"
+    out = subprocess.run(
+        [str(py), "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{PACKAGE}[view]"],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+    script = fresh_venv / "bin" / "attitude-view"
+    layout = subprocess.run([str(script), "--write-layout", "-"], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert layout.returncode == 0, layout.stderr
+    assert layout.stdout == view.layout_json()
+    shipped = subprocess.run(
+        [str(py), "-c", "from importlib import resources; import attitude_client; print(attitude_client.__file__); "
+         "print(resources.files('attitude_client').joinpath('layouts/demo.json').read_text())"],
+        capture_output=True, text=True, timeout=60, cwd=tmp_path,
+    )
+    assert shipped.returncode == 0, shipped.stderr
+    where, text = shipped.stdout.split("\n", 1)
+    assert str(fresh_venv) in where and text == view.layout_json() + "\n"
+    port = free_port()
+    proc = subprocess.Popen(
+        [str(script), "--connect", f"tcp/127.0.0.1:{free_port()}", "--wait", "0", "--port", str(port)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path,
+    )
+    fox = None
+    try:
+        fox = FoxgloveClient(f"ws://127.0.0.1:{port}")
+        wait_until(lambda: fox.last("/summary") is not None, 15, "a summary")
+        assert {"/tf", "/scene", "/summary"} <= set(fox.topics())
+        assert fox.last("/summary") == {"vehicles": [], "dropped": 0}
+    finally:
+        if fox is not None:
+            fox.close()
+        proc.send_signal(signal.SIGINT)
+        log = proc.communicate(timeout=20)[0]
+    assert proc.returncode == 0, log
+    assert "no service answered" in log, log
