@@ -17,7 +17,7 @@ pub mod state;
 pub mod usque;
 
 use crate::attitude::Quaternion;
-use crate::sensors::{Aspect, GyroNoise, Measurement, VectorObservation};
+use crate::sensors::{Aspect, GyroNoise, GyroSample, Measurement, VectorObservation};
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use std::fmt;
 use std::str::FromStr;
@@ -419,6 +419,29 @@ pub trait AttitudeFilter: Send {
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError>;
     /// Propagates to `t_s` (no later than the next measurement's time) without using a measurement.
     fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError>;
+    /// A gyro rate measured over `(t_prev_s, t_s]` (a raw IMU sample's): exactly
+    /// `process(&Measurement::Gyro(GyroSample { t_s: t_prev_s, omega_body_rad_s }))` and then
+    /// `advance_to(t_s)`, in one call (the raw-IMU pipeline makes one per sample).
+    fn gyro_interval(
+        &mut self,
+        t_prev_s: f64,
+        omega_body_rad_s: &Vector3<f64>,
+        t_s: f64,
+    ) -> Result<(), FilterError> {
+        self.process(&Measurement::Gyro(GyroSample {
+            t_s: t_prev_s,
+            omega_body_rad_s: *omega_body_rad_s,
+        }))?;
+        self.advance_to(t_s)
+    }
+    /// One vector observation taken at `t_s`: exactly `process` of the set of that one observation,
+    /// without making the set (the raw-IMU pipeline's tilt and heading updates).
+    fn observe(&mut self, t_s: f64, observation: &VectorObservation) -> Result<(), FilterError> {
+        self.process(&Measurement::Vectors(crate::sensors::ObservationSet {
+            t_s,
+            observations: vec![observation.clone()],
+        }))
+    }
     /// Propagates to `t_s`, then updates with a direct observation of the gyro bias
     /// ([`FilterCore::update_bias`]).
     fn observe_bias(
@@ -548,6 +571,41 @@ impl<F: FilterCore> Driver<F> {
     }
 }
 
+impl<F: FilterCore> Driver<F> {
+    /// A gyro sample after its validation: propagates to its time, then holds its rate.
+    #[inline]
+    fn take_gyro(&mut self, g: &GyroSample) -> Result<(), FilterError> {
+        self.propagate_to(g.t_s)?;
+        if let Some(tg) = self.last_gyro_t_s {
+            let dt = g.t_s - tg;
+            if dt > SAME_INSTANT_S {
+                if self.gyro_intervals == 0 {
+                    self.last_gyro_dt_s = dt;
+                } else if dt <= GAP_INTERVALS * self.last_gyro_dt_s {
+                    self.last_gyro_dt_s += 0.1 * (dt - self.last_gyro_dt_s);
+                }
+                self.gyro_intervals += 1;
+            }
+        }
+        self.last_gyro_t_s = Some(g.t_s);
+        self.omega_meas_rad_s = Some(g.omega_body_rad_s);
+        Ok(())
+    }
+}
+
+/// [`validate`] of a gyro sample: every value finite (`0·x` is 0 for a finite `x`, NaN otherwise)
+/// and the rate within [`MAX_RATE_RAD_S`], checked at once; the full checks (and their message) only
+/// when that fails.
+#[inline]
+fn validate_gyro(g: &GyroSample) -> Result<(), FilterError> {
+    let w = &g.omega_body_rad_s;
+    let zero = g.t_s * 0.0 + w[0] * 0.0 + w[1] * 0.0 + w[2] * 0.0;
+    if zero == 0.0 && w.amax() <= MAX_RATE_RAD_S {
+        return Ok(());
+    }
+    validate(&Measurement::Gyro(*g))
+}
+
 fn check_finite(values: impl IntoIterator<Item = f64>, what: &str) -> Result<(), FilterError> {
     if values.into_iter().all(f64::is_finite) {
         Ok(())
@@ -556,6 +614,31 @@ fn check_finite(values: impl IntoIterator<Item = f64>, what: &str) -> Result<(),
             "{what} is not finite"
         )))
     }
+}
+
+/// Checks observation `i` of a set.
+fn validate_observation(i: usize, o: &VectorObservation) -> Result<(), FilterError> {
+    check_finite(o.body.iter().copied(), "body vector")?;
+    check_finite(o.reference.iter().copied(), "reference vector")?;
+    if !(o.sigma.is_finite() && o.sigma > 0.0) {
+        return Err(FilterError::InvalidMeasurement(format!(
+            "observation {i}: sigma must be positive and finite"
+        )));
+    }
+    if let Aspect::Heading(up) | Aspect::Tilt(up) = &o.aspect {
+        check_finite(up.iter().copied(), "vertical axis")?;
+        if up.norm() == 0.0 {
+            return Err(FilterError::InvalidMeasurement(format!(
+                "observation {i}: zero vertical axis"
+            )));
+        }
+    }
+    if o.reference.norm() == 0.0 {
+        return Err(FilterError::InvalidMeasurement(format!(
+            "observation {i}: zero reference vector"
+        )));
+    }
+    Ok(())
 }
 
 /// Checks a measurement before any state changes.
@@ -574,26 +657,7 @@ pub fn validate(measurement: &Measurement) -> Result<(), FilterError> {
         }
         Measurement::Vectors(set) => {
             for (i, o) in set.observations.iter().enumerate() {
-                check_finite(o.body.iter().copied(), "body vector")?;
-                check_finite(o.reference.iter().copied(), "reference vector")?;
-                if !(o.sigma.is_finite() && o.sigma > 0.0) {
-                    return Err(FilterError::InvalidMeasurement(format!(
-                        "observation {i}: sigma must be positive and finite"
-                    )));
-                }
-                if let Aspect::Heading(up) | Aspect::Tilt(up) = &o.aspect {
-                    check_finite(up.iter().copied(), "vertical axis")?;
-                    if up.norm() == 0.0 {
-                        return Err(FilterError::InvalidMeasurement(format!(
-                            "observation {i}: zero vertical axis"
-                        )));
-                    }
-                }
-                if o.reference.norm() == 0.0 {
-                    return Err(FilterError::InvalidMeasurement(format!(
-                        "observation {i}: zero reference vector"
-                    )));
-                }
+                validate_observation(i, o)?;
             }
             Ok(())
         }
@@ -614,25 +678,15 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
     }
 
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError> {
+        if let Measurement::Gyro(g) = measurement {
+            validate_gyro(g)?;
+            return self.take_gyro(g);
+        }
         validate(measurement)?;
         self.propagate_to(measurement.t_s())?;
         match measurement {
-            Measurement::Gyro(g) => {
-                if let Some(tg) = self.last_gyro_t_s {
-                    let dt = g.t_s - tg;
-                    if dt > SAME_INSTANT_S {
-                        if self.gyro_intervals == 0 {
-                            self.last_gyro_dt_s = dt;
-                        } else if dt <= GAP_INTERVALS * self.last_gyro_dt_s {
-                            self.last_gyro_dt_s += 0.1 * (dt - self.last_gyro_dt_s);
-                        }
-                        self.gyro_intervals += 1;
-                    }
-                }
-                self.last_gyro_t_s = Some(g.t_s);
-                self.omega_meas_rad_s = Some(g.omega_body_rad_s);
-                Ok(())
-            }
+            // (Taken above.)
+            Measurement::Gyro(_) => Ok(()),
             Measurement::Vectors(set) if set.observations.is_empty() => Ok(()),
             Measurement::Vectors(set) => self.core.update(&set.observations),
             // (Refused by `validate` above.)
@@ -643,6 +697,29 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
     fn advance_to(&mut self, t_s: f64) -> Result<(), FilterError> {
         check_finite([t_s], "time")?;
         self.propagate_to(t_s)
+    }
+
+    fn gyro_interval(
+        &mut self,
+        t_prev_s: f64,
+        omega_body_rad_s: &Vector3<f64>,
+        t_s: f64,
+    ) -> Result<(), FilterError> {
+        let g = GyroSample {
+            t_s: t_prev_s,
+            omega_body_rad_s: *omega_body_rad_s,
+        };
+        validate_gyro(&g)?;
+        self.take_gyro(&g)?;
+        check_finite([t_s], "time")?;
+        self.propagate_to(t_s)
+    }
+
+    fn observe(&mut self, t_s: f64, observation: &VectorObservation) -> Result<(), FilterError> {
+        check_finite([t_s], "time")?;
+        validate_observation(0, observation)?;
+        self.propagate_to(t_s)?;
+        self.core.update(std::slice::from_ref(observation))
     }
 
     fn observe_bias(

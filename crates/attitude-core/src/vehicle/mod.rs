@@ -232,8 +232,8 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
     ImuDiagnostics {
         counts: a.counts().clone(),
         field: a
-            .field_reference()
-            .map(|((_, norm, dip_rad), offset)| FieldReference {
+            .field_norm_dip_offset()
+            .map(|(norm, dip_rad, offset)| FieldReference {
                 norm,
                 dip_rad,
                 offset,
