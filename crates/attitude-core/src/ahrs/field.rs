@@ -531,6 +531,77 @@ mod tests {
         Vector3::new(0.0, d.cos(), -d.sin()) * 45.0
     }
 
+    /// The fit on its structure against the dense normal equations it replaces (the pipeline before
+    /// issue 15): the same `Σ λ HᵀH`, bit for bit; the same solution, residual, offset σ and residual
+    /// with a given offset to rounding; the dense form converts back, and one without the structure is
+    /// refused.
+    #[test]
+    fn the_structured_fit_is_the_dense_one() {
+        let (window, dt) = (10.0, 0.0035);
+        let lambda = (-dt / window as f64).exp();
+        let mut fit = HardIronFit::default();
+        let (mut info, mut rhs, mut ss) = (Matrix6::<f64>::zeros(), Vector6::<f64>::zeros(), 0.0);
+        let offset = Vector3::new(3.0, -20.0, 8.0);
+        let mut q = Quaternion::IDENTITY;
+        for k in 0..3000 {
+            let t = k as f64 * dt;
+            let w = Vector3::new((0.7 * t).sin(), (0.5 * t).cos(), 0.8 * (0.3 * t).sin());
+            q = q.propagate(&w, dt);
+            let a = q.attitude_matrix();
+            let wobble = Vector3::new((13.0 * t).sin(), (7.0 * t).cos(), (3.0 * t).sin()) * 0.3;
+            let m = a * field(65.0) + offset + wobble;
+            fit.add(&m, &a, lambda, None);
+            info *= lambda;
+            rhs *= lambda;
+            ss *= lambda;
+            let mut hth = Matrix6::identity();
+            hth.fixed_view_mut::<3, 3>(0, 3).copy_from(&a.transpose());
+            hth.fixed_view_mut::<3, 3>(3, 0).copy_from(&a);
+            info += hth;
+            let atm = a.transpose() * m;
+            rhs += Vector6::new(atm[0], atm[1], atm[2], m[0], m[1], m[2]);
+            ss += m.norm_squared();
+        }
+        let bits = |m: &Matrix6<f64>| m.map(f64::to_bits);
+        assert_eq!(bits(&fit.info()), bits(&info));
+        assert_eq!(fit.rhs.map(f64::to_bits), rhs.map(f64::to_bits));
+        assert_eq!(fit.ss.to_bits(), ss.to_bits());
+        // The dense solution (the code this replaced).
+        let chol = info.cholesky().unwrap();
+        let x = chol.solve(&rhs);
+        let var = (ss - x.dot(&rhs)).max(0.0) / (3.0 * fit.n - 6.0);
+        let cov = chol.inverse().fixed_view::<3, 3>(3, 3) * var;
+        let sigma = cov.symmetric_eigenvalues().amax().sqrt();
+        let s = fit.solve().unwrap();
+        let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1e-300);
+        for i in 0..3 {
+            assert!(
+                close(s.field_gyro[i], x[i], 1e-10),
+                "{} {}",
+                s.field_gyro,
+                x
+            );
+            assert!(close(s.offset[i], x[i + 3], 1e-10), "{} {}", s.offset, x);
+        }
+        assert!(close(s.residual_rms, var.sqrt(), 1e-8));
+        assert!(
+            close(s.offset_sigma, sigma, 1e-9),
+            "{} {sigma}",
+            s.offset_sigma
+        );
+        assert!((s.offset - offset).norm() < 0.5);
+        let o = Vector3::new(1.0, -18.0, 7.0);
+        let c = (Vector3::new(rhs[0], rhs[1], rhs[2]) - info.fixed_view::<3, 3>(0, 3) * o)
+            / info[(0, 0)];
+        let xo = Vector6::new(c[0], c[1], c[2], o[0], o[1], o[2]);
+        let dense = ((ss - 2.0 * xo.dot(&rhs) + xo.dot(&(info * xo))) / (3.0 * fit.n - 3.0)).sqrt();
+        assert!(close(fit.residual_with_offset(&o), dense, 1e-9));
+        assert_eq!(HardIronFit::j_of_info(&info, fit.n), Ok(fit.j));
+        let mut off = info;
+        off[(0, 1)] = 1e-3;
+        assert!(HardIronFit::j_of_info(&off, fit.n).is_err());
+    }
+
     /// A body-fixed offset of 20 µT seen while the body turns through many attitudes: the fit finds it
     /// to a fraction of a µT and the channel accepts it after the confirmation time; before that the
     /// field is disturbed and rejected.
