@@ -206,26 +206,24 @@ pub struct SeriesPoint {
 pub struct Fed {
     pub published: usize,
     pub rejected: BTreeMap<String, u64>,
-    /// The pipeline's diagnostics of the last estimate.
-    pub imu: Option<ImuDiagnostics>,
 }
 
 /// Feeds every sample of `trial` into a new [`VehicleState`] as `P/V/imu` inputs (the vehicle id
 /// seeds a particle filter), then flushes it; every estimate published is handed to `take` with the
-/// index of the trial's sample of its time (`None` if no sample has that time). This is the loop the
-/// study and `imu-bench` share; what they keep of each estimate is theirs.
+/// index of the trial's sample of its time (`None` if no sample has that time); `take` may move out
+/// what it keeps (the estimate is dropped after it). This is the loop the study and `imu-bench` share;
+/// what they keep of each estimate is theirs.
 pub fn feed_trial(
     trial: &Trial,
     setup: &Setup,
     vehicle: &str,
-    mut take: impl FnMut(Option<usize>, &Published),
+    mut take: impl FnMut(Option<usize>, &mut Published),
 ) -> Fed {
     let mut state = VehicleState::new(vehicle, setup.filter.clone());
     let mut events = Vec::new();
     let mut fed = Fed {
         published: 0,
         rejected: BTreeMap::new(),
-        imu: None,
     };
     let mut next = 0usize;
     let mut handle = |events: &mut Vec<Event>, fed: &mut Fed| {
@@ -244,7 +242,6 @@ pub fn feed_trial(
                         && (trial.samples[next].t_s - t).abs() <= 1e-9)
                         .then_some(next);
                     take(at, p);
-                    fed.imu = p.imu.take();
                 }
                 Event::Rejected(_, r) => {
                     *fed.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
@@ -272,7 +269,10 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
     let start = Instant::now();
     let mut estimates = vec![None; trial.samples.len()];
     let mut series = vec![None; trial.samples.len()];
+    // The pipeline's diagnostics of the last estimate.
+    let mut imu: Option<ImuDiagnostics> = None;
     let fed = feed_trial(trial, setup, vehicle, |at, p| {
+        imu = p.imu.take();
         let Some(k) = at else { return };
         // The published estimate in domain terms (its covariance is the published one, time-stamp
         // term included; the wire's form differs only by the sign of q).
@@ -281,7 +281,7 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
             q: e.q,
             p_att: e.covariance.fixed_view::<3, 3>(0, 0).into_owned(),
         });
-        if let Some(d) = &p.imu {
+        if let Some(d) = &imu {
             series[k] = Some(SeriesPoint {
                 tilt_sigma_lp_deg: d.counts.tilt_sigma_lp_rad.to_degrees(),
                 at_rest: d.counts.at_rest,
@@ -295,7 +295,7 @@ pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
         published: fed.published,
         rejected: fed.rejected,
         // (Converted for the run once, at the end.)
-        imu: fed.imu.as_ref().map(ImuDiagnosticsMsg::from),
+        imu: imu.as_ref().map(ImuDiagnosticsMsg::from),
         series,
         seconds: start.elapsed().as_secs_f64(),
     }
