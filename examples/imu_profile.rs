@@ -2,7 +2,8 @@
 //! callgrind): the loop of `attitude-service imu-bench` without the process start-up and file reading
 //! in every run. `cargo run --release --example imu_profile -- TRIAL [runs] [config]`.
 
-use attitude_service::tools::imu_study::{load_config, read_trial, run_trial, Setup};
+use attitude_service::tools::imu_bench::bench_trial;
+use attitude_service::tools::imu_study::{load_config, read_trial, Setup};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -37,7 +38,7 @@ fn main() {
     let n = trial.samples.len() as f64;
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     let mut ns: Vec<f64> = (0..runs)
-        .map(|_| run_trial(&trial, &setup, "profile").seconds * 1e9 / n)
+        .map(|_| bench_trial(&trial, &setup, "profile").seconds * 1e9 / n)
         .collect();
     let allocations = (ALLOCATIONS.load(Ordering::Relaxed) - before) as f64 / (n * runs as f64);
     ns.sort_by(f64::total_cmp);

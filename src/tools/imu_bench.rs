@@ -4,18 +4,51 @@
 //! CC-BY-4.0) and reports the speed ratio and the benchmark's errors of both.
 //!
 //! Nothing of the pipeline is here: the samples go as `P/V/imu` inputs through
-//! [`crate::tools::imu_study::run_trial`], i.e. the service's `VehicleState` with the sensor models of
-//! [`crate::ahrs`] and the configuration of a file (`config/imu.json5` by default). The input is a trial
+//! [`crate::tools::imu_study::feed_trial`], i.e. the service's `VehicleState` with the sensor models of
+//! [`crate::ahrs`] and the configuration of a file (`config/imu.json5` by default), and every estimate
+//! the vehicle publishes comes back here ([`bench_trial`]), which keeps its attitude (what the
+//! estimates file holds; the study keeps the covariance and a series as well). The input is a trial
 //! file of `scripts/broad-export.py` ([`crate::tools::imu_study`] documents it).
 //!
 //! **Estimates file**: little-endian `f64`, a header `[n]`, then per sample `[w, x, y, z]`: the estimate
 //! published at that sample's time, as the Hamilton quaternion of body → East-North-Up (our
 //! [`Quaternion`]'s components), `w ≥ 0`; NaN for the samples of the alignment, which have none.
 
-use super::imu_study::{load_config, read_trial, run_trial, Setup, StudyError};
+use super::imu_study::{feed_trial, load_config, read_trial, Setup, StudyError, Trial};
 use crate::attitude::Quaternion;
 use crate::filters::FilterSpec;
+use std::collections::BTreeMap;
 use std::path::Path;
+use std::time::Instant;
+
+/// One timed run of [`bench_trial`].
+#[derive(Clone, Debug)]
+pub struct BenchRun {
+    /// The attitude published at each sample's time (None where none was).
+    pub attitudes: Vec<Option<Quaternion>>,
+    pub published: usize,
+    pub rejected: BTreeMap<String, u64>,
+    /// The whole per-sample loop: the vehicle, its estimates, what is kept of them.
+    pub seconds: f64,
+}
+
+/// The trial through one vehicle ([`feed_trial`]), timed, keeping the attitude of every published
+/// estimate: the loop `imu-bench` times and `examples/imu_profile.rs` profiles.
+pub fn bench_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> BenchRun {
+    let start = Instant::now();
+    let mut attitudes = vec![None; trial.samples.len()];
+    let fed = feed_trial(trial, setup, vehicle, |at, p| {
+        if let Some(k) = at {
+            attitudes[k] = Some(p.estimate.q);
+        }
+    });
+    BenchRun {
+        attitudes,
+        published: fed.published,
+        rejected: fed.rejected,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
 
 /// Writes the estimates file (see the module documentation).
 pub fn write_estimates(path: &Path, estimates: &[Option<Quaternion>]) -> Result<(), StudyError> {
@@ -53,10 +86,9 @@ pub fn main_entry(
     let service = load_config(config, sets)?;
     let setup = Setup::new(&service, filter, None);
     let trial = read_trial(trial)?;
-    let run = run_trial(&trial, &setup, "bench");
+    let run = bench_trial(&trial, &setup, "bench");
     if let Some(out) = estimates_out {
-        let q: Vec<Option<Quaternion>> = run.estimates.iter().map(|e| e.map(|s| s.q)).collect();
-        write_estimates(out, &q)?;
+        write_estimates(out, &run.attitudes)?;
     }
     let rejected: u64 = run.rejected.values().sum();
     Ok(serde_json::json!({

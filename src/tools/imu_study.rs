@@ -16,7 +16,7 @@ use crate::attitude::Quaternion;
 use crate::filters::FilterSpec;
 use crate::sensors::{ImuSample, Measurement};
 use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
-use crate::service::vehicle::{Event, VehicleState};
+use crate::service::vehicle::{Event, ImuDiagnostics, Published, VehicleState};
 use crate::study::broad::{score, Sample, Scores};
 use crate::wire::ImuDiagnosticsMsg;
 use nalgebra::Vector3;
@@ -201,71 +201,104 @@ pub struct SeriesPoint {
     pub bias: [f64; 3],
 }
 
+/// What [`feed_trial`] reports besides the estimates it hands over.
+#[derive(Clone, Debug)]
+pub struct Fed {
+    pub published: usize,
+    pub rejected: BTreeMap<String, u64>,
+}
+
 /// Feeds every sample of `trial` into a new [`VehicleState`] as `P/V/imu` inputs (the vehicle id
-/// seeds a particle filter), then flushes it.
-pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
-    let start = Instant::now();
+/// seeds a particle filter), then flushes it; every estimate published is handed to `take` with the
+/// index of the trial's sample of its time (`None` if no sample has that time); `take` may move out
+/// what it keeps (the estimate is dropped after it). This is the loop the study and `imu-bench` share;
+/// what they keep of each estimate is theirs.
+pub fn feed_trial(
+    trial: &Trial,
+    setup: &Setup,
+    vehicle: &str,
+    mut take: impl FnMut(Option<usize>, &mut Published),
+) -> Fed {
     let mut state = VehicleState::new(vehicle, setup.filter.clone());
     let mut events = Vec::new();
-    let mut run = Run {
-        estimates: vec![None; trial.samples.len()],
+    let mut fed = Fed {
         published: 0,
         rejected: BTreeMap::new(),
-        seconds: 0.0,
-        imu: None,
-        series: vec![None; trial.samples.len()],
     };
     let mut next = 0usize;
-    // The pipeline's diagnostics of the last estimate (converted for the run once, at the end).
-    let mut last_imu = None;
-    let mut take = |events: &mut Vec<Event>, run: &mut Run| {
-        for e in events.drain(..) {
+    let mut handle = |events: &mut Vec<Event>, fed: &mut Fed| {
+        // (Read in place, then dropped: an event is as large as an estimate, and moving each one out
+        // of the vector would copy it.)
+        for e in events.iter_mut() {
             match e {
                 Event::Estimate(p) => {
-                    // The published estimate in domain terms (its covariance is the published one,
-                    // time-stamp term included; the wire's form differs only by the sign of q).
-                    let e = &p.estimate;
-                    run.published += 1;
+                    let t = p.estimate.t_s;
+                    fed.published += 1;
                     // Estimates come in time order: find the sample of this time.
-                    while next < trial.samples.len() && trial.samples[next].t_s < e.t_s - 1e-9 {
+                    while next < trial.samples.len() && trial.samples[next].t_s < t - 1e-9 {
                         next += 1;
                     }
-                    if next < trial.samples.len() && (trial.samples[next].t_s - e.t_s).abs() <= 1e-9
-                    {
-                        run.estimates[next] = Some(Sample {
-                            q: e.q,
-                            p_att: e.covariance.fixed_view::<3, 3>(0, 0).into_owned(),
-                        });
-                        if let Some(d) = &p.imu {
-                            run.series[next] = Some(SeriesPoint {
-                                tilt_sigma_lp_deg: d.counts.tilt_sigma_lp_rad.to_degrees(),
-                                at_rest: d.counts.at_rest,
-                                mag_disturbed: d.counts.mag_disturbed,
-                                bias: [e.bias_rad_s[0], e.bias_rad_s[1], e.bias_rad_s[2]],
-                            });
-                        }
-                    }
-                    last_imu = p.imu;
+                    let at = (next < trial.samples.len()
+                        && (trial.samples[next].t_s - t).abs() <= 1e-9)
+                        .then_some(next);
+                    take(at, p);
                 }
                 Event::Rejected(_, r) => {
-                    *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
+                    *fed.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
                 }
                 Event::Processed(_) => {}
             }
         }
+        events.clear();
     };
     for s in &trial.samples {
         if let Err(r) = state.on_measurement(Measurement::Imu(*s), 0.0, &setup.policy, &mut events)
         {
-            *run.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
+            *fed.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
         }
-        take(&mut events, &mut run);
+        handle(&mut events, &mut fed);
     }
     state.flush_all(&setup.policy, &mut events);
-    take(&mut events, &mut run);
-    run.imu = last_imu.as_ref().map(ImuDiagnosticsMsg::from);
-    run.seconds = start.elapsed().as_secs_f64();
-    run
+    handle(&mut events, &mut fed);
+    fed
+}
+
+/// One trial through one vehicle ([`feed_trial`]), keeping of every estimate what the scores and the
+/// series need; timed (the keeping included).
+pub fn run_trial(trial: &Trial, setup: &Setup, vehicle: &str) -> Run {
+    let start = Instant::now();
+    let mut estimates = vec![None; trial.samples.len()];
+    let mut series = vec![None; trial.samples.len()];
+    // The pipeline's diagnostics of the last estimate.
+    let mut imu: Option<ImuDiagnostics> = None;
+    let fed = feed_trial(trial, setup, vehicle, |at, p| {
+        imu = p.imu.take();
+        let Some(k) = at else { return };
+        // The published estimate in domain terms (its covariance is the published one, time-stamp
+        // term included; the wire's form differs only by the sign of q).
+        let e = &p.estimate;
+        estimates[k] = Some(Sample {
+            q: e.q,
+            p_att: e.covariance.fixed_view::<3, 3>(0, 0).into_owned(),
+        });
+        if let Some(d) = &imu {
+            series[k] = Some(SeriesPoint {
+                tilt_sigma_lp_deg: d.counts.tilt_sigma_lp_rad.to_degrees(),
+                at_rest: d.counts.at_rest,
+                mag_disturbed: d.counts.mag_disturbed,
+                bias: [e.bias_rad_s[0], e.bias_rad_s[1], e.bias_rad_s[2]],
+            });
+        }
+    });
+    Run {
+        estimates,
+        published: fed.published,
+        rejected: fed.rejected,
+        // (Converted for the run once, at the end.)
+        imu: imu.as_ref().map(ImuDiagnosticsMsg::from),
+        series,
+        seconds: start.elapsed().as_secs_f64(),
+    }
 }
 
 /// Writes a run as CSV, one row per sample: `t, movement, q (w x y z), truth (w x y z), P_att (9),

@@ -449,14 +449,50 @@ saved!(HardIronSolutionV4 for HardIronSolution {
     residual_rms: f64,
     offset_sigma: f64,
 });
-saved!(HardIronFitV4 for HardIronFit {
-    info: Matrix6<f64>,
-    rhs: Vector6<f64>,
+/// The hard-iron fit as format 4 keeps it: the dense normal matrix `Σ λ HᵀH`, which the core holds
+/// on its structure `[[n I, Jᵀ], [J, n I]]` (`HardIronFit::info`; a matrix without it is refused).
+#[derive(Serialize, Deserialize)]
+pub struct HardIronFitV4 {
+    info: <Matrix6<f64> as Saved>::Form,
+    rhs: <Vector6<f64> as Saved>::Form,
     ss: f64,
     n: f64,
     recent_ms: f64,
-    solution: Option<HardIronSolution>,
-});
+    solution: <Option<HardIronSolution> as Saved>::Form,
+}
+
+impl Saved for HardIronFit {
+    type Form = HardIronFitV4;
+    fn save(&self) -> HardIronFitV4 {
+        let HardIronFit {
+            j: _,
+            rhs,
+            ss,
+            n,
+            recent_ms,
+            solution,
+        } = self;
+        HardIronFitV4 {
+            info: self.info().save(),
+            rhs: rhs.save(),
+            ss: *ss,
+            n: *n,
+            recent_ms: *recent_ms,
+            solution: solution.save(),
+        }
+    }
+    fn load(form: HardIronFitV4) -> Result<Self, String> {
+        let info = Matrix6::load(form.info)?;
+        Ok(HardIronFit {
+            j: HardIronFit::j_of_info(&info, form.n)?,
+            rhs: Vector6::load(form.rhs)?,
+            ss: form.ss,
+            n: form.n,
+            recent_ms: form.recent_ms,
+            solution: Option::load(form.solution)?,
+        })
+    }
+}
 saved!(FieldV4 for FieldChannel {
     direction: Vector3<f64>,
     norm: f64,

@@ -26,8 +26,9 @@
 //!   ([`crate::sensors::Aspect::Heading`]), every `interval_s`, with the 1σ of a heading error that is
 //!   slow and correlated over `correlation_s` (`σ √(T_c / T_u)`), as field inhomogeneity is.
 
-use super::lowpass::{first_order, first_order_by, gain};
-use super::{HardIronConfig, MagConfig};
+use super::gains::FieldGains;
+use super::lowpass::first_order_by;
+use super::MagConfig;
 use crate::sensors::imu::dip_rad;
 use crate::sensors::{Aspect, VectorObservation};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
@@ -35,11 +36,14 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 /// The reference-frame vertical (East-North-Up).
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
 
-/// Recursive least squares with exponential forgetting for `m = A C + o`.
+/// Recursive least squares with exponential forgetting for `m = A C + o`, on the structure of its
+/// normal equations: with `H = [A, I]` and `A` a rotation, `HᵀH = [[I, Aᵀ], [A, I]]`, so
+/// `Σ λ HᵀH = [[n I, Jᵀ], [J, n I]]` with `n = Σ λ` and `J = Σ λ A`: ten numbers per sample where
+/// the dense matrix takes 36, and the same values (the dense diagonal blocks are `n I` bit for bit).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HardIronFit {
-    /// `Σ λ HᵀH`, `Σ λ Hᵀm`, `Σ λ mᵀm`, `Σ λ` (samples), with `H = [A, I]`.
-    pub info: Matrix6<f64>,
+    /// `J = Σ λ A`, `Σ λ Hᵀm`, `Σ λ mᵀm`, `n = Σ λ` (samples).
+    pub j: Matrix3<f64>,
     pub rhs: Vector6<f64>,
     pub ss: f64,
     pub n: f64,
@@ -62,7 +66,7 @@ pub struct HardIronSolution {
 impl Default for HardIronFit {
     fn default() -> Self {
         HardIronFit {
-            info: Matrix6::zeros(),
+            j: Matrix3::zeros(),
             rhs: Vector6::zeros(),
             ss: 0.0,
             n: 0.0,
@@ -73,46 +77,76 @@ impl Default for HardIronFit {
 }
 
 impl HardIronFit {
-    fn add(&mut self, c: &HardIronConfig, m: &Vector3<f64>, a_gyro: &Matrix3<f64>, dt_s: f64) {
-        let lambda = (-dt_s.max(0.0) / c.window_s.max(1e-9)).exp();
-        self.info *= lambda;
+    /// The dense `Σ λ HᵀH = [[n I, Jᵀ], [J, n I]]` (the form a checkpoint keeps).
+    pub fn info(&self) -> Matrix6<f64> {
+        let mut info = Matrix6::identity() * self.n;
+        info.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&self.j.transpose());
+        info.fixed_view_mut::<3, 3>(3, 0).copy_from(&self.j);
+        info
+    }
+
+    /// `J` of a dense `Σ λ HᵀH` ([`HardIronFit::info`]) whose diagonal is `n`; `Err` when the
+    /// matrix does not have that structure.
+    pub fn j_of_info(info: &Matrix6<f64>, n: f64) -> Result<Matrix3<f64>, String> {
+        let j: Matrix3<f64> = info.fixed_view::<3, 3>(3, 0).into_owned();
+        let mut f = HardIronFit::default();
+        (f.j, f.n) = (j, n);
+        let same = info
+            .iter()
+            .zip(f.info().iter())
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        if same {
+            Ok(j)
+        } else {
+            Err("the hard-iron fit's normal matrix is not [[n I, Jᵀ], [J, n I]]".into())
+        }
+    }
+
+    /// Takes the reading `m` at the gyro frame's attitude `a_gyro`, after forgetting `λ` of what the
+    /// fit holds; `k_recent` is the gain of the recent residual's low-pass ([`super::gains`]).
+    #[inline]
+    fn add(&mut self, m: &Vector3<f64>, a_gyro: &Matrix3<f64>, lambda: f64, k_recent: Option<f64>) {
+        self.j *= lambda;
         self.rhs *= lambda;
         self.ss *= lambda;
         self.n *= lambda;
-        // HᵀH = [[AᵀA, Aᵀ], [A, I]] = [[I, Aᵀ], [A, I]] for a rotation A.
-        let mut hth = Matrix6::identity();
-        hth.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&a_gyro.transpose());
-        hth.fixed_view_mut::<3, 3>(3, 0).copy_from(a_gyro);
-        self.info += hth;
+        self.j += a_gyro;
+        self.n += 1.0;
         let atm = a_gyro.transpose() * m;
         self.rhs += Vector6::new(atm[0], atm[1], atm[2], m[0], m[1], m[2]);
         self.ss += m.norm_squared();
-        self.n += 1.0;
         if let Some(s) = &self.solution {
             let r = m - a_gyro * s.field_gyro - s.offset;
-            self.recent_ms = first_order(self.recent_ms, r.norm_squared() / 3.0, dt_s, c.recent_s);
+            self.recent_ms = first_order_by(self.recent_ms, r.norm_squared() / 3.0, k_recent);
         }
-        if !(all_finite(self.info.as_slice()) && self.ss.is_finite()) {
+        if !(all_finite(self.j.as_slice()) && (self.n * 0.0 + self.ss * 0.0) == 0.0) {
             *self = HardIronFit::default();
         }
     }
 
+    /// The least-squares solution by the Schur complement of the field block: `S = n I − J Jᵀ/n`,
+    /// `S o = b_o − J b_C/n`, `C = (b_C − Jᵀ o)/n`; the offset's covariance is `S⁻¹` times the residual
+    /// variance (the lower right block of the normal matrix's inverse).
     fn solve(&mut self) -> Option<HardIronSolution> {
         if self.n < 10.0 {
             return None;
         }
-        let chol = self.info.cholesky()?;
-        let x = chol.solve(&self.rhs);
-        let ss = (self.ss - x.dot(&self.rhs)).max(0.0);
-        let dof = (3.0 * self.n - 6.0).max(1.0);
+        let n = self.n;
+        let b_c = Vector3::new(self.rhs[0], self.rhs[1], self.rhs[2]);
+        let b_o = Vector3::new(self.rhs[3], self.rhs[4], self.rhs[5]);
+        let s = Matrix3::identity() * n - self.j * self.j.transpose() / n;
+        let chol = s.cholesky()?;
+        let offset = chol.solve(&(b_o - self.j * b_c / n));
+        let field = (b_c - self.j.transpose() * offset) / n;
+        let ss = (self.ss - (field.dot(&b_c) + offset.dot(&b_o))).max(0.0);
+        let dof = (3.0 * n - 6.0).max(1.0);
         let var = ss / dof;
-        let inv = chol.inverse();
-        let offset_cov = inv.fixed_view::<3, 3>(3, 3) * var;
+        let offset_cov = chol.inverse() * var;
         let offset_sigma = offset_cov.symmetric_eigenvalues().amax().max(0.0).sqrt();
         let s = HardIronSolution {
-            field_gyro: Vector3::new(x[0], x[1], x[2]),
-            offset: Vector3::new(x[3], x[4], x[5]),
+            field_gyro: field,
+            offset,
             residual_rms: var.sqrt(),
             offset_sigma,
         };
@@ -127,25 +161,26 @@ impl HardIronFit {
     }
 
     /// The RMS residual per axis over the window of the best field `C` with the offset held at `o`
-    /// (`C = J_CC⁻¹ (b_C − J_Co o)`; `J_CC` is the identity times the sample weight).
+    /// (`C = (b_C − Jᵀ o)/n`).
     fn residual_with_offset(&self, o: &Vector3<f64>) -> f64 {
         if self.n < 10.0 {
             return f64::INFINITY;
         }
-        let j_co = self.info.fixed_view::<3, 3>(0, 3).into_owned();
+        let n = self.n;
         let b_c = Vector3::new(self.rhs[0], self.rhs[1], self.rhs[2]);
         let b_o = Vector3::new(self.rhs[3], self.rhs[4], self.rhs[5]);
-        let c = (b_c - j_co * o) / self.info[(0, 0)];
-        let x = Vector6::new(c[0], c[1], c[2], o[0], o[1], o[2]);
-        // ss − 2 xᵀb + xᵀJx.
-        let ss = self.ss - 2.0 * (c.dot(&b_c) + o.dot(&b_o)) + x.dot(&(self.info * x));
-        (ss.max(0.0) / (3.0 * self.n - 3.0).max(1.0)).sqrt()
+        let jt_o = self.j.transpose() * o;
+        let c = (b_c - jt_o) / n;
+        // ss − 2 xᵀb + xᵀ(HᵀH)x, x = [C; o]: xᵀ(HᵀH)x = C·(n C + Jᵀ o) + o·(J C + n o).
+        let quad = c.dot(&(c * n + jt_o)) + o.dot(&(self.j * c + o * n));
+        let ss = self.ss - 2.0 * (c.dot(&b_c) + o.dot(&b_o)) + quad;
+        (ss.max(0.0) / (3.0 * n - 3.0).max(1.0)).sqrt()
     }
 
     /// Keeps `weight` of what the fit has seen (a change of the field: the readings before it no longer
     /// describe the field after it).
     fn forget(&mut self, weight: f64) {
-        self.info *= weight;
+        self.j *= weight;
         self.rhs *= weight;
         self.ss *= weight;
         self.n *= weight;
@@ -155,6 +190,15 @@ impl HardIronFit {
     fn recent_rms(&self) -> f64 {
         self.recent_ms.max(0.0).sqrt()
     }
+}
+
+/// The unit direction north cos δ − up sin δ for the dip `δ`, north the horizontal part of `north`
+/// (the y axis when it has none).
+fn direction(north: &Vector3<f64>, dip: f64) -> Vector3<f64> {
+    let h = (north - UP * north.dot(&UP))
+        .try_normalize(1e-12)
+        .unwrap_or(Vector3::y());
+    h * dip.cos() - UP * dip.sin()
 }
 
 /// True when every value is finite: `0·x` is 0 for a finite `x` and NaN otherwise, summed in four
@@ -183,7 +227,9 @@ pub enum HeadingObservation {
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldChannel {
-    /// The reference field in the reference frame: unit direction, norm (reading units), dip (rad).
+    /// The reference field in the reference frame: a unit direction whose horizontal part is north (the
+    /// direction as last set: at the start or by a new field; [`FieldChannel::direction_now`] is the
+    /// direction at the current dip), norm (reading units), dip (rad).
     pub direction: Vector3<f64>,
     pub norm: f64,
     pub dip: f64,
@@ -241,17 +287,27 @@ impl FieldChannel {
     }
 
     fn set_reference(&mut self, norm: f64, dip: f64, north: &Vector3<f64>) {
-        let h = (north - UP * north.dot(&UP))
-            .try_normalize(1e-12)
-            .unwrap_or(Vector3::y());
         self.norm = norm;
         self.dip = dip;
-        self.direction = h * dip.cos() - UP * dip.sin();
+        self.direction = direction(north, dip);
+    }
+
+    /// The reference direction now: north (the horizontal part of `direction`, which only a new field
+    /// turns) at the current dip. The reference adapts its dip at every undisturbed sample; its
+    /// direction is formed here, when an observation or a caller uses it (a `sin_cos` per use, not per
+    /// sample).
+    pub fn direction_now(&self) -> Vector3<f64> {
+        direction(&self.direction, self.dip)
     }
 
     /// The reference direction (unit, reference frame), norm and dip.
     pub fn reference(&self) -> (Vector3<f64>, f64, f64) {
-        (self.direction, self.norm, self.dip)
+        (self.direction_now(), self.norm, self.dip)
+    }
+
+    /// The reference's norm and dip.
+    pub fn norm_dip(&self) -> (f64, f64) {
+        (self.norm, self.dip)
     }
 
     pub fn disturbed(&self) -> bool {
@@ -280,11 +336,28 @@ impl FieldChannel {
         rate_rad_s: f64,
         dt_s: f64,
     ) {
+        let g = FieldGains::new(c, dt_s);
+        self.update_by(c, mag, up_body, up_gyro, a_gyro, rate_rad_s, dt_s, &g);
+    }
+
+    /// [`FieldChannel::update`] with the gains of the interval given ([`super::gains`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_by(
+        &mut self,
+        c: &MagConfig,
+        mag: &Vector3<f64>,
+        up_body: &Vector3<f64>,
+        up_gyro: &Vector3<f64>,
+        a_gyro: &Matrix3<f64>,
+        rate_rad_s: f64,
+        dt_s: f64,
+        g: &FieldGains,
+    ) {
         let dt = dt_s.max(0.0);
         self.since_update_s += dt;
         self.since_solve_s += dt;
         if c.hard_iron.enabled {
-            self.fit.add(&c.hard_iron, mag, a_gyro, dt);
+            self.fit.add(mag, a_gyro, g.fit_forget, g.fit_recent);
         }
         let m = mag - self.offset;
         let n = m.norm();
@@ -293,7 +366,7 @@ impl FieldChannel {
         }
         let dip = dip_rad(&(m / n), up_body);
         // (Norm and dip filtered alike: one gain each for the low-pass and the reference.)
-        let (k_lp, k_ref) = (gain(dt, c.lowpass_s), gain(dt, c.reference_s));
+        let (k_lp, k_ref) = (g.lowpass, g.reference);
         if self.lp_ready {
             self.lp_norm = first_order_by(self.lp_norm, n, k_lp);
             self.lp_dip = first_order_by(self.lp_dip, dip, k_lp);
@@ -305,10 +378,9 @@ impl FieldChannel {
             self.undisturbed_s += dt;
             if self.undisturbed_s >= c.min_undisturbed_s {
                 self.disturbed = false;
+                // (The direction follows the dip where it is used: `direction_now`.)
                 self.norm = first_order_by(self.norm, ln, k_ref);
                 self.dip = first_order_by(self.dip, ld, k_ref);
-                let h = self.direction - UP * self.direction.dot(&UP);
-                self.set_reference(self.norm, self.dip, &h);
             }
         } else {
             if !self.disturbed && c.hard_iron.enabled {
@@ -436,7 +508,7 @@ impl FieldChannel {
         HeadingObservation::Use(
             VectorObservation {
                 body,
-                reference: self.direction,
+                reference: self.direction_now(),
                 // heading_sigma_rad(σ, ‖r_h‖) = σ/‖r_h‖ = σ_ψ.
                 sigma: spread * horizontal,
                 // (No name: nothing reads it, and one would be an allocation per update.)
@@ -457,6 +529,77 @@ mod tests {
     fn field(dip_deg: f64) -> Vector3<f64> {
         let d = dip_deg.to_radians();
         Vector3::new(0.0, d.cos(), -d.sin()) * 45.0
+    }
+
+    /// The fit on its structure against the dense normal equations it replaces (the pipeline before
+    /// issue 15): the same `Σ λ HᵀH`, bit for bit; the same solution, residual, offset σ and residual
+    /// with a given offset to rounding; the dense form converts back, and one without the structure is
+    /// refused.
+    #[test]
+    fn the_structured_fit_is_the_dense_one() {
+        let (window, dt) = (10.0, 0.0035);
+        let lambda = (-dt / window as f64).exp();
+        let mut fit = HardIronFit::default();
+        let (mut info, mut rhs, mut ss) = (Matrix6::<f64>::zeros(), Vector6::<f64>::zeros(), 0.0);
+        let offset = Vector3::new(3.0, -20.0, 8.0);
+        let mut q = Quaternion::IDENTITY;
+        for k in 0..3000 {
+            let t = k as f64 * dt;
+            let w = Vector3::new((0.7 * t).sin(), (0.5 * t).cos(), 0.8 * (0.3 * t).sin());
+            q = q.propagate(&w, dt);
+            let a = q.attitude_matrix();
+            let wobble = Vector3::new((13.0 * t).sin(), (7.0 * t).cos(), (3.0 * t).sin()) * 0.3;
+            let m = a * field(65.0) + offset + wobble;
+            fit.add(&m, &a, lambda, None);
+            info *= lambda;
+            rhs *= lambda;
+            ss *= lambda;
+            let mut hth = Matrix6::identity();
+            hth.fixed_view_mut::<3, 3>(0, 3).copy_from(&a.transpose());
+            hth.fixed_view_mut::<3, 3>(3, 0).copy_from(&a);
+            info += hth;
+            let atm = a.transpose() * m;
+            rhs += Vector6::new(atm[0], atm[1], atm[2], m[0], m[1], m[2]);
+            ss += m.norm_squared();
+        }
+        let bits = |m: &Matrix6<f64>| m.map(f64::to_bits);
+        assert_eq!(bits(&fit.info()), bits(&info));
+        assert_eq!(fit.rhs.map(f64::to_bits), rhs.map(f64::to_bits));
+        assert_eq!(fit.ss.to_bits(), ss.to_bits());
+        // The dense solution (the code this replaced).
+        let chol = info.cholesky().unwrap();
+        let x = chol.solve(&rhs);
+        let var = (ss - x.dot(&rhs)).max(0.0) / (3.0 * fit.n - 6.0);
+        let cov = chol.inverse().fixed_view::<3, 3>(3, 3) * var;
+        let sigma = cov.symmetric_eigenvalues().amax().sqrt();
+        let s = fit.solve().unwrap();
+        let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1e-300);
+        for i in 0..3 {
+            assert!(
+                close(s.field_gyro[i], x[i], 1e-10),
+                "{} {}",
+                s.field_gyro,
+                x
+            );
+            assert!(close(s.offset[i], x[i + 3], 1e-10), "{} {}", s.offset, x);
+        }
+        assert!(close(s.residual_rms, var.sqrt(), 1e-8));
+        assert!(
+            close(s.offset_sigma, sigma, 1e-9),
+            "{} {sigma}",
+            s.offset_sigma
+        );
+        assert!((s.offset - offset).norm() < 0.5);
+        let o = Vector3::new(1.0, -18.0, 7.0);
+        let c = (Vector3::new(rhs[0], rhs[1], rhs[2]) - info.fixed_view::<3, 3>(0, 3) * o)
+            / info[(0, 0)];
+        let xo = Vector6::new(c[0], c[1], c[2], o[0], o[1], o[2]);
+        let dense = ((ss - 2.0 * xo.dot(&rhs) + xo.dot(&(info * xo))) / (3.0 * fit.n - 3.0)).sqrt();
+        assert!(close(fit.residual_with_offset(&o), dense, 1e-9));
+        assert_eq!(HardIronFit::j_of_info(&info, fit.n), Ok(fit.j));
+        let mut off = info;
+        off[(0, 1)] = 1e-3;
+        assert!(HardIronFit::j_of_info(&off, fit.n).is_err());
     }
 
     /// A body-fixed offset of 20 µT seen while the body turns through many attitudes: the fit finds it

@@ -72,17 +72,28 @@ impl GravityChannel {
         dt_s: f64,
         at_rest: bool,
     ) {
+        self.update_by(acc, a_gyro, dt_s, at_rest, gain(dt_s, c.lowpass_s));
+    }
+
+    /// [`GravityChannel::update`] with the gain `1 − e^{−Δt/τ_a}` of its levels given
+    /// ([`super::gains`]). Returns what [`GravityChannel::up_gyro`] returns now.
+    #[inline]
+    pub fn update_by(
+        &mut self,
+        acc: &Vector3<f64>,
+        a_gyro: &Matrix3<f64>,
+        dt_s: f64,
+        at_rest: bool,
+        k: Option<f64>,
+    ) -> Option<Vector3<f64>> {
         let f = a_gyro.transpose() * acc;
-        let lp = self.lp.update(&f, dt_s);
-        let lp2 = self.lp2.update(&f, dt_s);
-        let k = gain(dt_s, c.lowpass_s);
-        if at_rest {
-            let n = lp.norm();
-            if n.is_finite() && n > 0.0 {
-                self.g0 = first_order_by(self.g0, n, k);
-            }
+        let (lp, lp2) = Lowpass3::update_pair(&mut self.lp, &f, &mut self.lp2, &f, dt_s);
+        // (`try_normalize` with its threshold, once: 0 here, 1e-12 for `up_gyro`.)
+        let n = lp.norm();
+        if at_rest && n.is_finite() && n > 0.0 {
+            self.g0 = first_order_by(self.g0, n, k);
         }
-        let up = lp.try_normalize(0.0).unwrap_or(UP);
+        let up = if n <= 0.0 { UP } else { lp / n };
         let d = lp - lp2;
         let horizontal = d - up * d.dot(&up);
         self.motion_ms = first_order_by(self.motion_ms, horizontal.norm_squared(), k);
@@ -90,6 +101,11 @@ impl GravityChannel {
             self.motion_ms = 0.0;
         }
         self.since_update_s += dt_s.max(0.0);
+        if n <= 1e-12 {
+            None
+        } else {
+            Some(up)
+        }
     }
 
     /// The low-passed direction of up in the body frame (unit), if there is one.

@@ -4,7 +4,9 @@
 //! Coefficients by the bilinear transform with pre-warping, recomputed when the interval changes;
 //! direct form I (the last two inputs and outputs are the state, so a change of interval only changes
 //! the coefficients applied to them); started in the steady state of the first input (no start-up
-//! transient).
+//! transient). Two filters that take samples of the same interval (the rest detector's gyro and
+//! accelerometer, the gravity channel's two time constants) step together in one pass of six lanes
+//! ([`Lowpass3::update_pair`]), with the same values as one after the other.
 
 use nalgebra::Vector3;
 
@@ -54,37 +56,111 @@ impl Lowpass3 {
 
     /// Filters `x`, taken `dt_s` after the previous input (ignored for the first; a non-positive
     /// interval leaves the filter as it was).
+    #[inline]
     pub fn update(&mut self, x: &Vector3<f64>, dt_s: f64) -> Vector3<f64> {
-        if !(self.tau_s > 0.0) {
-            self.y = Some([*x, *x]);
-            return *x;
+        let x = [x[0], x[1], x[2]];
+        match self.step(&x, dt_s) {
+            Some(out) => Vector3::from(out),
+            None => self.restart(&x, dt_s),
         }
-        let Some(y) = self.y else {
+    }
+
+    /// The filter's step on plain arrays; `None` when the output is not finite (nothing changed).
+    #[inline(always)]
+    fn step(&mut self, x: &[f64; 3], dt_s: f64) -> Option<[f64; 3]> {
+        if !(self.tau_s > 0.0) {
+            let v = Vector3::from(*x);
+            self.y = Some([v, v]);
+            return Some(*x);
+        }
+        let Some(y) = &mut self.y else {
             // The steady state of a constant input x.
-            self.x = [*x, *x];
-            self.y = Some([*x, *x]);
-            return *x;
+            let v = Vector3::from(*x);
+            self.x = [v, v];
+            self.y = Some([v, v]);
+            return Some(*x);
         };
-        if !(dt_s > 0.0 && dt_s.is_finite()) {
-            return y[0];
+        // (0 < Δt < ∞: neither NaN nor infinite.)
+        if !(dt_s > 0.0 && dt_s < f64::INFINITY) {
+            return Some(y[0].into());
         }
         if (dt_s - self.dt_s).abs() > 1e-9 * dt_s || self.dt_s.is_nan() {
             self.c = coefficients(self.tau_s, dt_s);
             self.dt_s = dt_s;
         }
         let [b0, b1, b2, a1, a2] = self.c;
-        // (Per component, in the order of the vector expression x b₀ + x₁ b₁ + x₂ b₂ − y₁ a₁ − y₂ a₂.)
+        // (Per component, in the order of x b₀ + x₁ b₁ + x₂ b₂ − y₁ a₁ − y₂ a₂.)
         let (x1, x2, y1, y2) = (&self.x[0], &self.x[1], &y[0], &y[1]);
-        let out =
-            Vector3::from_fn(|i, _| x[i] * b0 + x1[i] * b1 + x2[i] * b2 - y1[i] * a1 - y2[i] * a2);
-        if !(out[0].is_finite() && out[1].is_finite() && out[2].is_finite()) {
-            // Restart rather than carry a non-finite state.
-            *self = Lowpass3::new(self.tau_s);
-            return self.update(x, dt_s);
+        let out: [f64; 3] =
+            std::array::from_fn(|i| x[i] * b0 + x1[i] * b1 + x2[i] * b2 - y1[i] * a1 - y2[i] * a2);
+        // Finite: 0·v is 0 for a finite v and NaN otherwise.
+        if out[0] * 0.0 + out[1] * 0.0 + out[2] * 0.0 != 0.0 {
+            return None;
         }
-        self.x = [*x, self.x[0]];
-        self.y = Some([out, y[0]]);
-        out
+        self.x[1] = self.x[0];
+        self.x[0] = Vector3::from(*x);
+        y[1] = y[0];
+        y[0] = Vector3::from(out);
+        Some(out)
+    }
+
+    /// True when a step over `dt_s` (positive and finite) is the plain recursion: a filter that has
+    /// started, with the coefficients of that interval (`update`'s test for new ones fails: a NaN
+    /// `self.dt_s` fails `≤` as well).
+    #[inline(always)]
+    fn steady(&self, dt_s: f64) -> bool {
+        self.tau_s > 0.0 && self.y.is_some() && (dt_s - self.dt_s).abs() <= 1e-9 * dt_s
+    }
+
+    /// Two low-passes of the same interval (the rest detector's gyro and accelerometer, the gravity
+    /// channel's two time constants) in one pass of six lanes: the values of `a.update(xa, dt_s)` and
+    /// `b.update(xb, dt_s)`, bit for bit (the same operations in the same order per component).
+    #[inline]
+    pub fn update_pair(
+        a: &mut Lowpass3,
+        xa: &Vector3<f64>,
+        b: &mut Lowpass3,
+        xb: &Vector3<f64>,
+        dt_s: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        if dt_s > 0.0 && dt_s < f64::INFINITY && a.steady(dt_s) && b.steady(dt_s) {
+            if let (Some(ya), Some(yb)) = (&mut a.y, &mut b.y) {
+                let lane = |k: usize| if k < 3 { &a.c } else { &b.c };
+                let c: [[f64; 6]; 5] = std::array::from_fn(|j| std::array::from_fn(|k| lane(k)[j]));
+                let pick = |u: &Vector3<f64>, v: &Vector3<f64>| -> [f64; 6] {
+                    [u[0], u[1], u[2], v[0], v[1], v[2]]
+                };
+                let x = pick(xa, xb);
+                let (x1, x2) = (pick(&a.x[0], &b.x[0]), pick(&a.x[1], &b.x[1]));
+                let (y1, y2) = (pick(&ya[0], &yb[0]), pick(&ya[1], &yb[1]));
+                let out: [f64; 6] = std::array::from_fn(|i| {
+                    x[i] * c[0][i] + x1[i] * c[1][i] + x2[i] * c[2][i]
+                        - y1[i] * c[3][i]
+                        - y2[i] * c[4][i]
+                });
+                let zero: f64 = out.iter().map(|v| v * 0.0).sum();
+                if zero == 0.0 {
+                    let (oa, ob) = (
+                        Vector3::new(out[0], out[1], out[2]),
+                        Vector3::new(out[3], out[4], out[5]),
+                    );
+                    a.x = [*xa, a.x[0]];
+                    b.x = [*xb, b.x[0]];
+                    *ya = [oa, ya[0]];
+                    *yb = [ob, yb[0]];
+                    return (oa, ob);
+                }
+            }
+        }
+        (a.update(xa, dt_s), b.update(xb, dt_s))
+    }
+
+    /// Restarts rather than carry a non-finite state.
+    #[cold]
+    #[inline(never)]
+    fn restart(&mut self, x: &[f64; 3], dt_s: f64) -> Vector3<f64> {
+        *self = Lowpass3::new(self.tau_s);
+        self.update(&Vector3::from(*x), dt_s)
     }
 }
 
@@ -110,6 +186,38 @@ pub fn first_order_by(y: f64, x: f64, gain: Option<f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A pair stepped together gives the bits of the two stepped one after the other, through the
+    /// start, changes of interval, a non-positive interval and a non-finite input (a restart).
+    #[test]
+    fn a_pair_is_the_two_filters_bit_for_bit() {
+        let (mut a, mut b) = (Lowpass3::new(0.5), Lowpass3::new(3.0));
+        let (mut a1, mut b1) = (a.clone(), b.clone());
+        let mut x = 0.3f64;
+        for k in 0..2000 {
+            // A deterministic, irregular sequence.
+            x = (x * 3.7 + 0.1).fract();
+            let xa = Vector3::new(x - 0.5, 2.0 * x, 9.81 - x);
+            let xb = Vector3::new(-x, x * x, 1.0 + x);
+            let dt = match k % 97 {
+                13 => 0.0,
+                40 => -0.01,
+                _ if k > 1000 => 0.01,
+                _ => 0.0035 + 1e-15 * f64::from(k % 7),
+            };
+            let xa = if k == 1500 {
+                Vector3::new(f64::NAN, 0.0, 0.0)
+            } else {
+                xa
+            };
+            let (ya, yb) = Lowpass3::update_pair(&mut a, &xa, &mut b, &xb, dt);
+            let (za, zb) = (a1.update(&xa, dt), b1.update(&xb, dt));
+            let bits = |v: &Vector3<f64>| v.map(f64::to_bits);
+            assert_eq!((bits(&ya), bits(&yb)), (bits(&za), bits(&zb)), "sample {k}");
+            // (Debug: a NaN state is equal to itself here.)
+            assert_eq!(format!("{a:?}{b:?}"), format!("{a1:?}{b1:?}"), "sample {k}");
+        }
+    }
 
     #[test]
     fn unit_dc_gain_and_no_start_transient() {

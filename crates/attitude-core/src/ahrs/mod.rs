@@ -28,6 +28,7 @@
 
 mod config;
 pub mod field;
+pub mod gains;
 pub mod gravity;
 pub mod lowpass;
 pub mod rest;
@@ -37,11 +38,12 @@ use crate::attitude::{skew, Quaternion};
 use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
 use crate::sensors::imu::{heading_basis, heading_jacobian, heading_residual};
 pub use crate::sensors::ImuSample;
-use crate::sensors::{Measurement, ObservationSet, VectorObservation};
+use crate::sensors::VectorObservation;
 pub use config::{
     AccConfig, AhrsConfig, HardIronConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
 };
 use field::{FieldChannel, HeadingObservation};
+use gains::{GainCache, IntervalGains};
 use gravity::{GravityChannel, TiltObservation};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
@@ -85,6 +87,19 @@ pub struct Ahrs {
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
     counts: AhrsCounts,
+    /// The interval's gains, remembered by interval (not state: the same bits as computed afresh).
+    gains: GainCache,
+}
+
+/// What [`Ahrs::preprocess`] hands the step.
+struct Preprocessed {
+    /// The interval since the previous sample, s.
+    dt: f64,
+    /// The gyro frame's attitude matrix (gyro frame → body).
+    a_gyro: Matrix3<f64>,
+    /// The low-passed vertical in the gyro frame ([`GravityChannel::up_gyro`]).
+    up_gyro: Option<Vector3<f64>>,
+    gains: IntervalGains,
 }
 
 impl Ahrs {
@@ -107,6 +122,7 @@ impl Ahrs {
             tilt_inconsistent_s: 0.0,
             heading_inconsistent_s: 0.0,
             counts: AhrsCounts::default(),
+            gains: GainCache::default(),
         }
     }
 
@@ -130,14 +146,17 @@ impl Ahrs {
         self.field.as_ref().map(|f| (f.reference(), f.offset()))
     }
 
+    /// The field channel's reference norm and dip (rad) and its offset (cheaper than
+    /// [`Ahrs::field_reference`]: no direction).
+    pub fn field_norm_dip_offset(&self) -> Option<(f64, f64, Vector3<f64>)> {
+        self.field.as_ref().map(|f| {
+            let (norm, dip) = f.norm_dip();
+            (norm, dip, f.offset())
+        })
+    }
+
     /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
-    /// Returns the interval since the previous sample and the gyro frame's attitude matrix.
-    fn preprocess(
-        &mut self,
-        c: &AhrsConfig,
-        s: &ImuSample,
-        bias: &Vector3<f64>,
-    ) -> (f64, Matrix3<f64>) {
+    fn preprocess(&mut self, c: &AhrsConfig, s: &ImuSample, bias: &Vector3<f64>) -> Preprocessed {
         let dt = match self.t_s {
             Some(t) => (s.t_s - t).max(0.0),
             None => 0.0,
@@ -157,9 +176,16 @@ impl Ahrs {
             self.counts.rest_samples += 1;
         }
         let a_gyro = self.q_gyro.attitude_matrix();
-        self.gravity
-            .update(&c.acc, &s.acc_m_s2, &a_gyro, dt, at_rest);
-        (dt, a_gyro)
+        let gains = self.gains.get(c, dt);
+        let up_gyro = self
+            .gravity
+            .update_by(&s.acc_m_s2, &a_gyro, dt, at_rest, gains.acc);
+        Preprocessed {
+            dt,
+            a_gyro,
+            up_gyro,
+            gains,
+        }
     }
 
     /// Takes a sample while no filter runs. Once `init.duration_s` of samples is collected, returns
@@ -273,15 +299,16 @@ impl Ahrs {
         // accelerometer and the hard-iron fit are kept in.
         let limit = c.rest.bias_limit_rad_s;
         let bias = filter.bias_rad_s().map(|b| b.clamp(-limit, limit));
-        let (dt, a_gyro) = self.preprocess(c, s, &bias);
+        let Preprocessed {
+            dt,
+            a_gyro,
+            up_gyro,
+            gains,
+        } = self.preprocess(c, s, &bias);
         let omega = s.gyr_rad_s - bias;
         self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t.
-        filter.process(&Measurement::Gyro(crate::sensors::GyroSample {
-            t_s: t_prev,
-            omega_body_rad_s: s.gyr_rad_s,
-        }))?;
-        filter.advance_to(s.t_s)?;
+        filter.gyro_interval(t_prev, &s.gyr_rad_s, s.t_s)?;
         let at_rest = self.counts.at_rest;
         // Bias at rest.
         self.since_bias_s += dt;
@@ -329,11 +356,18 @@ impl Ahrs {
             m - omega.cross(&m) * c.mag.delay_s
         });
         if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
-            if let (Some(up_b), Some(up_g)) =
-                (self.gravity.up_body(&a_gyro), self.gravity.up_gyro())
-            {
+            if let (Some(up_b), Some(up_g)) = (self.gravity.up_body(&a_gyro), up_gyro) {
                 let rate = self.rest.gyr_lowpass() - bias;
-                field.update(&c.mag, &mag, &up_b, &up_g, &a_gyro, rate.norm(), dt);
+                field.update_by(
+                    &c.mag,
+                    &mag,
+                    &up_b,
+                    &up_g,
+                    &a_gyro,
+                    rate.norm(),
+                    dt,
+                    &gains.field,
+                );
             }
             self.counts.mag_disturbed = field.disturbed();
             self.counts.mag_new_fields = field.new_fields;
@@ -383,10 +417,7 @@ fn update(
     t_s: f64,
     o: VectorObservation,
 ) -> Result<(), FilterError> {
-    filter.process(&Measurement::Vectors(ObservationSet {
-        t_s,
-        observations: vec![o],
-    }))
+    filter.observe(t_s, &o)
 }
 
 /// `νᵀ S⁻¹ ν` of a tilt observation about the estimate `e` with the observation's 1σ `sigma`:

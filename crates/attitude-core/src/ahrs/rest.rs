@@ -35,8 +35,7 @@ impl RestDetector {
         acc: &Vector3<f64>,
         dt_s: f64,
     ) -> bool {
-        let g = self.gyr_lp.update(gyr, dt_s);
-        let a = self.acc_lp.update(acc, dt_s);
+        let (g, a) = Lowpass3::update_pair(&mut self.gyr_lp, gyr, &mut self.acc_lp, acc, dt_s);
         let still = (gyr - g).norm() < c.gyr_limit_rad_s
             && g.amax() <= c.bias_limit_rad_s
             && (acc - a).norm() < c.acc_limit_m_s2;

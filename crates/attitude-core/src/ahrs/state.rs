@@ -79,6 +79,7 @@ impl Ahrs {
             tilt_inconsistent_s: s.tilt_inconsistent_s,
             heading_inconsistent_s: s.heading_inconsistent_s,
             counts: s.counts,
+            gains: Default::default(),
         })
     }
 }

@@ -232,8 +232,8 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
     ImuDiagnostics {
         counts: a.counts().clone(),
         field: a
-            .field_reference()
-            .map(|((_, norm, dip_rad), offset)| FieldReference {
+            .field_norm_dip_offset()
+            .map(|(norm, dip_rad, offset)| FieldReference {
                 norm,
                 dip_rad,
                 offset,
@@ -250,10 +250,10 @@ fn healthy(e: &Estimate, kind: FilterKind) -> bool {
         FilterKind::Qpf => is_spd(&e.covariance),
         FilterKind::Mekf | FilterKind::Usque => plausibly_spd(&e.covariance),
     };
-    e.q.is_finite()
-        && (e.q.norm() - 1.0).abs() < 1e-6
-        && e.bias_rad_s.iter().all(|b| b.is_finite())
-        && pd
+    // (A norm within 1e-6 of 1 is finite: a NaN or an infinite component fails the test. A bias is
+    // finite when 0·b is 0 for each component.)
+    let b = &e.bias_rad_s;
+    (e.q.norm() - 1.0).abs() < 1e-6 && b[0] * 0.0 + b[1] * 0.0 + b[2] * 0.0 == 0.0 && pd
 }
 
 impl VehicleState {
