@@ -59,6 +59,13 @@ pub struct HealthMsg {
     pub reinits: u64,
     #[serde(default)]
     pub rollbacks: u64,
+    /// Late samples fused by rolling back and replaying, summed over the vehicles (since each was
+    /// created or restored), and the bytes their histories hold (`service.time.history_bytes` each at
+    /// most).
+    #[serde(default)]
+    pub late_fused: u64,
+    #[serde(default)]
+    pub history_bytes: u64,
     /// Checkpointing, when a state directory is configured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoints: Option<CheckpointHealthMsg>,

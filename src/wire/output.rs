@@ -104,6 +104,12 @@ pub struct DiagnosticsMsg {
     /// Samples waiting in the reorder window.
     #[serde(default)]
     pub held: usize,
+    /// Published again by a replay after a late sample: replaces the estimate of the same `seq`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub replayed: bool,
+    /// Late samples fused by rolling back and replaying (since the vehicle was created or restored).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub late_fused: u64,
     /// The raw-IMU pipeline of a vehicle fed `P/V/imu` (absent otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<ImuDiagnosticsMsg>,
@@ -314,7 +320,13 @@ impl From<&Published> for EstimateMsg {
         d.rollbacks = p.rollbacks;
         d.reinits = p.reinits.clone();
         d.held = p.held;
+        d.replayed = p.replayed;
+        d.late_fused = p.late_fused;
         d.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
         msg
     }
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }

@@ -417,6 +417,8 @@ fn full_estimate() -> EstimateMsg {
             rollbacks: 0,
             reinits: BTreeMap::from([("gate".to_string(), 1)]),
             held: 2,
+            replayed: true,
+            late_fused: 3,
             imu: Some(full_imu_diagnostics()),
         },
     }
@@ -532,6 +534,8 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         gated: 1,
         reinits: 1,
         rollbacks: 0,
+        late_fused: 4,
+        history_bytes: 123456,
         checkpoints: Some(CheckpointHealthMsg {
             state_dir: "/var/lib/attitude".into(),
             interval_s: 10.0,

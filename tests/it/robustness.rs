@@ -10,7 +10,7 @@ use attitude_service::sensors::{
 };
 use attitude_service::service::config::{Policy, ServiceConfig, VehicleFilterConfig};
 use attitude_service::service::persist::{self, SavedCounters};
-use attitude_service::service::vehicle::{Event, Stream, VehicleState};
+use attitude_service::service::vehicle::{Event, Key, Stream, VehicleState};
 use attitude_service::wire::{EstimateMsg, RejectCode};
 use nalgebra::Vector3;
 
@@ -96,8 +96,9 @@ fn reordered_streams_are_used_in_time_order() {
         set_at(2.0, &truth, "st"),
         gyro(2.0, w),
     ];
+    // In processing order: by time, the gyro before the set of the same instant.
     let mut sorted = arrival.clone();
-    sorted.sort_by(|a, b| a.t_s().partial_cmp(&b.t_s()).unwrap());
+    sorted.sort_by(|a, b| Key::of(a).partial_cmp(&Key::of(b)).unwrap());
 
     let mut a = VehicleState::new("a", config("mekf", 0));
     let ea = feed(&mut a, &p, arrival.clone());
@@ -117,12 +118,33 @@ fn reordered_streams_are_used_in_time_order() {
         assert_eq!(x.cov, y.cov);
     }
 
-    // Without a window the same arrival order refuses the late gyro sample.
+    // Without a window the late gyro sample (0.8 after the set at 1) is fused by a replay: the
+    // estimates published again, with the seq of those they replace, are the time-ordered ones.
+    let mut d = VehicleState::new("d", config("mekf", 0));
+    let ed = estimates(&feed(&mut d, &no_window, arrival.clone()));
+    // (Four: the gyro at 0.8 s after the set at 1 s, and each gyro sample arriving after the set of
+    // its own instant, which it precedes in processing order.)
+    assert_eq!(d.late_fused(), 4);
+    assert!(ed.len() > 3 && ed.iter().any(|e| e.diagnostics.replayed));
+    let mut last = std::collections::BTreeMap::new();
+    for e in ed {
+        last.insert(e.seq, e);
+    }
+    assert_eq!(last.len(), 3);
+    for (x, y) in last.values().zip(&eb) {
+        assert_eq!((x.t, q_of(x), x.cov), (y.t, q_of(y), y.cov));
+    }
+
+    // Without a window and without the history (time.max_lag_s = 0) it is refused.
+    let neither = Policy {
+        max_lag_s: 0.0,
+        ..no_window.clone()
+    };
     let mut c = VehicleState::new("c", config("mekf", 0));
     let mut out = Vec::new();
     let mut codes = Vec::new();
     for m in arrival {
-        if let Err(r) = c.on_measurement(m, 0.0, &no_window, &mut out) {
+        if let Err(r) = c.on_measurement(m, 0.0, &neither, &mut out) {
             codes.push(r.code);
         }
     }

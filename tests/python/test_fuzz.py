@@ -11,9 +11,9 @@ stream, on the healthy vehicles' keys and on junk vehicles (valid ids and ids ou
   bytes, invalid UTF-8, truncated or mutated JSON (NaN/Infinity/1e999 literals, bad number syntax, deep
   nesting, trailing garbage, a BOM), field deletions, unknown fields, type swaps, nulls, wrong lengths, zero
   vectors, non-positive sigmas, bad sensor names, empty and oversize sets and batches, oversize payloads,
-  batches with one bad item, valid items older than the vehicle's time (also with extreme values), and
-  refused resets. Anything the contract would accept (a valid message at a new time) is data, so it never
-  goes to a healthy vehicle;
+  batches with one bad item, valid items older than the vehicle's time by more than `time.max_lag_s` (also
+  with extreme values), and refused resets. Anything the contract would accept (a valid message at a new time,
+  or at an old time within the lag: it is fused) is data, so it never goes to a healthy vehicle;
 * on junk vehicles anything: the same, plus valid-looking messages with extreme numbers (1e308, 5e-324,
   -0.0, t = 1e300), unicode and long sensor names, duplicate keys, arrays for objects, puts on other leaves,
   resets with random (valid or invalid) fields.
@@ -66,6 +66,10 @@ JUNK_IDS = [f"junk-{i:02d}" for i in range(40)] + [
 ]
 #: Vector sets a publisher may be ahead of the estimates it has received.
 WINDOW = 5
+#: Stale items are older than the last chunk sent by more than the service's time.max_lag_s (2 s, the default;
+#: within it they would be fused) plus how far the service may be behind the chunks sent (WINDOW sets of 1 s,
+#: the publisher's flow control), with half a second to spare.
+STALE_S = (2.0 + WINDOW + 0.5, 2.0 + WINDOW + 5.0)
 
 # ------------------------------------------------------------------------------------------------
 # Payload building blocks
@@ -467,7 +471,7 @@ def test_fuzz(tmp_path):
                         healthy_reset_problems.append((v, payload[:120], code, got))
                     return
                 leaf = rng.choice(["gyro", "vectors"])
-                payload, codes = hostile.invalid(leaf, last_t[v] - rng.uniform(0.05, 5.0))
+                payload, codes = hostile.invalid(leaf, last_t[v] - rng.uniform(*STALE_S))
                 c.put_raw(v, leaf, payload)
                 expected[v].update(codes)
                 sent[f"{leaf} (healthy)"] += 1

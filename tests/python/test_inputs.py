@@ -165,7 +165,8 @@ def test_estimate_diagnostics_count_rejected_inputs(client):
     # (Once the set at 1 s is processed: until then the reorder window would still take 0.5 s.)
     estimates.wait_for(lambda i: len(i) >= 1, 10, "the estimate at t = 1")
     client.put_raw(vehicle, "vectors", vectors(2.0, sigma=0).encode())
-    client.put_raw(vehicle, "vectors", vectors(0.5).encode())  # out of order
+    # Out of order: older than the last processed set by more than time.max_lag_s (2 s; a later one is fused).
+    client.put_raw(vehicle, "vectors", vectors(-1.5).encode())
     client.publish_vectors(vehicle, 3.0, s.vectors(3.0))
     got = estimates.wait_for(lambda i: any(e["t"] == 3.0 for e in i), 10, "the estimate at t = 3")
     sub.undeclare()

@@ -343,6 +343,9 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     if !(t.max_jump_s > 0.0) {
         return Err("service.time.max_jump_s must be positive".into());
     }
+    if !(t.max_lag_s >= 0.0 && t.max_lag_s <= 3600.0) {
+        return Err("service.time.max_lag_s must be in [0, 3600]".into());
+    }
     let threshold = |p: f64, at: &str| -> Result<Option<f64>, String> {
         if p == 0.0 {
             Ok(None)
@@ -393,6 +396,8 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         imu_estimate_interval_s: if rate > 0.0 { 1.0 / rate } else { 0.0 },
         reorder_window_s: t.reorder_window_s,
         max_jump_s: t.max_jump_s,
+        max_lag_s: t.max_lag_s,
+        history_bytes: t.history_bytes,
         gate_threshold: threshold(raw.gate.probability, "service.gate.probability")?,
         sensor_gate,
         sensor_models,

@@ -78,6 +78,8 @@ impl Default for RawFleet {
 pub(super) struct RawTime {
     pub(super) reorder_window_s: f64,
     pub(super) max_jump_s: f64,
+    pub(super) max_lag_s: f64,
+    pub(super) history_bytes: usize,
 }
 
 impl Default for RawTime {
@@ -85,6 +87,8 @@ impl Default for RawTime {
         RawTime {
             reorder_window_s: 0.2,
             max_jump_s: 3600.0,
+            max_lag_s: 2.0,
+            history_bytes: 8 << 20,
         }
     }
 }

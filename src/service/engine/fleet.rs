@@ -220,12 +220,13 @@ impl Engine {
             *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = snapshot;
         }
         let n = replay.len();
+        let at = self.now_s();
         v.received.fetch_add(n as u64, Ordering::Relaxed);
         v.dirty.store(true, Ordering::Release);
         v.inbox
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .extend(replay.into_iter().map(Input::Measurement));
+            .extend(replay.into_iter().map(|m| Input::Measurement(m, at)));
         self.fleet.takeovers.fetch_add(1, Ordering::Relaxed);
         tracing::info!(
             vehicle = id,

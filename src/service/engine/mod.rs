@@ -41,15 +41,17 @@ pub struct Inbound {
     pub payload: Vec<u8>,
 }
 
-/// What a vehicle's worker processes, in order.
+/// What a vehicle's worker processes, in order. A measurement and a tick carry the engine time they
+/// were queued at: the vehicle's wall clock is the time its inputs arrived, never the time a worker
+/// got to them, so a slow worker or a busy machine releases nothing from a reorder window early.
 enum Input {
-    Measurement(Measurement),
+    Measurement(Measurement, f64),
     Reset(
         ResetRequest,
         tokio::sync::oneshot::Sender<Result<ResetReplyMsg, Rejection>>,
     ),
     /// Release what the reorder window holds beyond its wall-time limit.
-    Tick,
+    Tick(f64),
 }
 
 /// Service-wide counters (atomics: read by queries without locks).
@@ -106,6 +108,9 @@ pub struct Vehicle {
     gated: AtomicU64,
     reinits: AtomicU64,
     rollbacks: AtomicU64,
+    /// Late samples fused and the bytes of the history that lets it (for `P/@/health`).
+    late_fused: AtomicU64,
+    history_bytes: AtomicU64,
     /// Changed since its last checkpoint.
     dirty: AtomicBool,
 }
@@ -129,6 +134,8 @@ impl Vehicle {
             gated: AtomicU64::new(0),
             reinits: AtomicU64::new(0),
             rollbacks: AtomicU64::new(0),
+            late_fused: AtomicU64::new(0),
+            history_bytes: AtomicU64::new(0),
             dirty: AtomicBool::new(false),
             state: Mutex::new(state),
         };
@@ -145,6 +152,9 @@ impl Vehicle {
         self.gated.store(t.gated, Ordering::Relaxed);
         self.reinits.store(t.reinits, Ordering::Relaxed);
         self.rollbacks.store(t.rollbacks, Ordering::Relaxed);
+        self.late_fused.store(t.late_fused, Ordering::Relaxed);
+        self.history_bytes
+            .store(t.history_bytes as u64, Ordering::Relaxed);
     }
 
     fn counters(&self) -> SavedCounters {
@@ -424,10 +434,10 @@ impl Engine {
             for v in self.vehicles() {
                 if v.held.load(Ordering::Relaxed) > 0 && !v.tick_queued.swap(true, Ordering::AcqRel)
                 {
-                    v.inbox
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .push_back(Input::Tick);
+                    let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
+                    // (Stamped under the inbox's lock: stamps never go back along an inbox.)
+                    inbox.push_back(Input::Tick(self.now_s()));
+                    drop(inbox);
                     self.schedule(&v);
                 }
             }
@@ -582,7 +592,8 @@ impl Engine {
                 );
                 return self.reject(vehicle, &inbound.key, &r);
             }
-            inbox.extend(measurements.into_iter().map(Input::Measurement));
+            let at = self.now_s();
+            inbox.extend(measurements.into_iter().map(|m| Input::Measurement(m, at)));
             // (A refused payload is counted as one rejection, not as received samples.)
             v.received.fetch_add(n, Ordering::Relaxed);
         }
@@ -675,16 +686,15 @@ impl Engine {
                     .pop_front();
                 let Some(input) = next else { break };
                 v.dirty.store(true, Ordering::Release);
-                let now = self.now_s();
                 match input {
-                    Input::Measurement(m) => {
+                    Input::Measurement(m, now) => {
                         let stream = super::vehicle::stream_of(&m);
                         if let Err(r) = state.on_measurement(m, now, policy, &mut events) {
                             self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
                         self.handle(v, &state, &mut events);
                     }
-                    Input::Tick => {
+                    Input::Tick(now) => {
                         v.tick_queued.store(false, Ordering::Release);
                         state.on_tick(now, policy, &mut events);
                         self.handle(v, &state, &mut events);

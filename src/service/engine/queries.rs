@@ -86,6 +86,14 @@ impl Engine {
                 .iter()
                 .map(|v| v.rollbacks.load(Ordering::Relaxed))
                 .sum(),
+            late_fused: vehicles
+                .iter()
+                .map(|v| v.late_fused.load(Ordering::Relaxed))
+                .sum(),
+            history_bytes: vehicles
+                .iter()
+                .map(|v| v.history_bytes.load(Ordering::Relaxed))
+                .sum(),
             checkpoints: self
                 .config
                 .persistence

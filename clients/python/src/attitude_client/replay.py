@@ -363,16 +363,41 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
         sent = end
         if pause > 0:
             time.sleep(pause)
-    # The last samples leave the reorder window by wall time. Wait until every sample has its estimate, or
-    # none came for `quiet` s (a refused sample never will).
+    # Wait until every sample has its estimate; a refused sample never will, so also stop once the service has
+    # processed or refused everything sent (its P/@/vehicles row) and no estimate came for `quiet` s since.
+    # (Not on a pause in the estimates alone: on a busy machine the service may fall seconds behind, and
+    # stopping then would count the tail it is still working on as lost.)
     quiet = 3.0
+
+    def finished(vehicle: str) -> bool:
+        try:
+            row = next((r for r in client.vehicles(timeout=5.0) if r["vehicle"] == vehicle), None)
+        except (TimeoutError, ValueError, KeyError):
+            return False
+        return row is not None and row["received"] >= sent and row["processed"] + row["rejected"] >= row["received"]
+
     for spec in specs:
-        with cond:
-            while newest[spec] < sent - 1:
-                before = got[spec]
-                cond.wait(timeout=quiet)
-                if got[spec] == before:
+        last_progress = last_check = time.monotonic()
+        done_since = None
+        while True:
+            with cond:
+                if newest[spec] >= sent - 1:
                     break
+                before = got[spec]
+                cond.wait(timeout=0.5)
+                progressed = got[spec] != before
+            now = time.monotonic()
+            if progressed:
+                last_progress = now
+                done_since = None if done_since is None else now
+            if now - last_progress > args.timeout:
+                break
+            if done_since is None and now - last_check >= 0.5:
+                last_check = now
+                if finished(vehicles[spec]):
+                    done_since = now
+            if done_since is not None and now - max(done_since, last_progress) >= quiet:
+                break
     seconds = time.monotonic() - t0
     stop.set()
     drainer.join(timeout=5)

@@ -2,12 +2,15 @@
 //! ways back (re-initialisation). A closed state machine without I/O or locks; its whole state can be
 //! taken out and put back as plain data ([`VehicleSnapshot`], what a checkpoint saves).
 //!
-//! An input first passes the time checks (duplicate, older than processed, jump) and is refused with
-//! a [`Rejection`] that changes nothing, or is accepted into the reorder window. Samples leave the
-//! window in time order once every stream of the vehicle has reached their time, or after the window
-//! (in sample time or in wall time), and only then reach the filter: `Initializing` (no filter yet:
-//! waiting for a vector set that determines the attitude, or a reset that gives it) → `Tracking`.
-//! What happens to released samples is reported as [`Event`]s.
+//! An input first passes the time checks (duplicate, jump, older than the history reaches) and is
+//! refused with a [`Rejection`] that changes nothing, or is accepted into the reorder window. Samples
+//! leave the window in time order ([`Key`]) once every stream of the vehicle has reached their time,
+//! or once a stream has run the window ahead (sample time), or after waiting the window since they
+//! arrived (wall time: a stream that stopped does not stall the others), and only then reach the
+//! filter: `Initializing` (no filter yet: waiting for a vector set that determines the attitude, or a
+//! reset that gives it) → `Tracking`. A sample older than what was processed already, within
+//! `time.max_lag_s`, is fused by rolling back to a kept state and replaying (`history.rs`): releasing
+//! early costs a replay, never a sample. What happens to samples is reported as [`Event`]s.
 
 use crate::ahrs::Ahrs;
 use crate::attitude::{q_method, skew, Quaternion};
@@ -27,12 +30,16 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 mod gate;
+mod history;
 mod output;
 pub mod policy;
 mod reset;
 mod start;
 mod state;
+#[cfg(test)]
+mod tests;
 
+pub use history::{Key, KEPT_PER_LAG};
 pub use output::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};
 pub use reset::{ResetRequest, TakeoverSeed};
 pub use state::{HeldSample, VehicleSnapshot};
@@ -92,7 +99,7 @@ enum Slot {
 
 /// A sample in the reorder window.
 struct Held {
-    t_s: f64,
+    key: Key,
     /// Wall time it was accepted, s on the engine's clock (−∞ after a restore: released at the next
     /// flush).
     held_at_s: f64,
@@ -106,12 +113,14 @@ pub struct JumpCandidate {
     pub count: u32,
 }
 
-/// A vehicle's gate, re-initialisation and rollback counts.
+/// A vehicle's gate, re-initialisation, rollback and late-sample counts, and its history's bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Totals {
     pub gated: u64,
     pub reinits: u64,
     pub rollbacks: u64,
+    pub late_fused: u64,
+    pub history_bytes: usize,
 }
 
 /// A vehicle's complete state.
@@ -126,10 +135,18 @@ pub struct VehicleState {
     generation: u64,
     /// Time of the last sample used, s.
     last_t: Option<f64>,
+    /// The newest sample processed, in processing order: an older one is late (`history`).
+    last_key: Option<Key>,
     /// The last gyro sample used: its rate is held by a filter started or restarted later.
     last_gyro: Option<GyroSample>,
-    /// The reorder window, sorted by time (arrival order among equal times).
+    /// The reorder window, sorted by [`Key`] (arrival order among equal keys).
     held: VecDeque<Held>,
+    /// Kept states and the samples processed since, for late samples (not part of a checkpoint).
+    history: history::History,
+    /// Late samples fused so far (not part of a checkpoint), and whether a replay is running (its
+    /// estimates are published as `replayed`).
+    late_fused: u64,
+    replaying: bool,
     /// Newest time accepted per stream, and the first time accepted at all.
     newest: [Option<f64>; STREAMS],
     first_t: Option<f64>,
@@ -265,8 +282,12 @@ impl VehicleState {
             seq: 0,
             generation: 0,
             last_t: None,
+            last_key: None,
             last_gyro: None,
             held: VecDeque::new(),
+            history: Default::default(),
+            late_fused: 0,
+            replaying: false,
             newest: [None; STREAMS],
             first_t: None,
             recent: std::array::from_fn(|_| VecDeque::new()),
@@ -319,6 +340,8 @@ impl VehicleState {
             gated: self.gate.values().map(|c| c.gated).sum(),
             reinits: self.reinits.values().sum(),
             rollbacks: self.rollbacks,
+            late_fused: self.late_fused,
+            history_bytes: self.history.bytes(),
         }
     }
 
@@ -341,6 +364,8 @@ impl VehicleState {
             rollbacks: self.rollbacks,
             reinits: self.reinits.clone(),
             held: self.held.len(),
+            replayed: self.replaying,
+            late_fused: self.late_fused,
             imu: self.ahrs.as_ref().map(imu_diagnostics),
         }
     }
@@ -388,7 +413,9 @@ impl VehicleState {
     }
 
     /// Accepts a sample into the reorder window (or refuses it, changing nothing) and processes what
-    /// the window releases. `now_s` is the wall clock, s.
+    /// the window releases; a late sample within the lag is fused at once (`history`). `now_s` is the
+    /// wall time the sample arrived at the service, s: the window's wall-time limit counts from it, so
+    /// time spent queued behind other work never releases anything early.
     pub fn on_measurement(
         &mut self,
         m: Measurement,
@@ -447,17 +474,23 @@ impl VehicleState {
                 ));
             }
         }
-        if let Some(last) = self.last_t {
-            if t < last - SAME_INSTANT_S {
-                return Err(Rejection::new(
-                    RejectCode::OutOfOrder,
-                    format!(
-                        "t = {t} s is older than the vehicle's last processed sample ({last} s) by more than the reorder window ({} s)",
-                        policy.reorder_window_s
-                    ),
-                ));
+        let key = Key::of(&m);
+        let rewind = if self.is_late(key) {
+            match self.rewind_for(&m, key, policy) {
+                Ok(r) => Some(r),
+                // Without a history to put it in its place, a sample of the instant last processed
+                // is still used (after it), as it always was: equal times are no reason to refuse.
+                Err(r)
+                    if r.code == RejectCode::OutOfOrder
+                        && self.last_t.is_some_and(|l| t >= l - SAME_INSTANT_S) =>
+                {
+                    None
+                }
+                Err(r) => return Err(r),
             }
-        }
+        } else {
+            None
+        };
         if let Some(newest) = self.newest_any() {
             if t > newest + policy.max_jump_s {
                 // Consistent samples beyond the jump confirm a new time base (a real gap in the data);
@@ -496,11 +529,15 @@ impl VehicleState {
         let n = &mut self.newest[stream as usize];
         *n = Some(n.map_or(t, |x| x.max(t)));
         self.first_t.get_or_insert(t);
-        let at = self.held.partition_point(|h| h.t_s <= t);
+        if let Some(rewind) = rewind {
+            self.replay(rewind, m, policy, out);
+            return Ok(());
+        }
+        let at = self.held.partition_point(|h| h.key <= key);
         self.held.insert(
             at,
             Held {
-                t_s: t,
+                key,
                 held_at_s: now_s,
                 m,
             },
@@ -509,7 +546,8 @@ impl VehicleState {
         Ok(())
     }
 
-    /// Releases what the window allows at wall time `now_s` (the periodic flush).
+    /// Releases what the window allows at wall time `now_s` (the periodic flush; `now_s` is when the
+    /// tick was queued, so a tick that waited behind the vehicle's inputs releases nothing early).
     pub fn on_tick(&mut self, now_s: f64, policy: &Policy, out: &mut Vec<Event>) {
         self.release(now_s, policy, false, out);
     }
@@ -547,10 +585,11 @@ impl VehicleState {
                 .unwrap_or(f64::NEG_INFINITY)
         };
         while let Some(first) = self.held.front() {
+            let t = first.key.t_s;
             let ready = all
                 || window <= 0.0
-                || first.t_s <= watermark + SAME_INSTANT_S
-                || first.t_s <= newest - window
+                || t <= watermark + SAME_INSTANT_S
+                || t <= newest - window
                 || now_s - first.held_at_s >= window;
             if !ready {
                 break;
@@ -558,7 +597,7 @@ impl VehicleState {
             let Some(h) = self.held.pop_front() else {
                 break;
             };
-            self.process(h.m, policy, out);
+            self.step(h.m, false, policy, out);
         }
     }
 

@@ -56,6 +56,10 @@ pub struct Published {
     pub reinits: BTreeMap<String, u64>,
     /// Samples waiting in the reorder window.
     pub held: usize,
+    /// Published again by a replay after a late sample: it replaces the estimate of the same `seq`.
+    pub replayed: bool,
+    /// Late samples the vehicle has fused by a replay (since it was created or restored).
+    pub late_fused: u64,
     /// A vehicle fed raw IMU samples.
     pub imu: Option<ImuDiagnostics>,
 }

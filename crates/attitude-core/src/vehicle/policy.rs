@@ -28,9 +28,16 @@ pub struct VehicleFilterConfig {
 /// How every vehicle treats time, outliers and failures (service-wide; not part of a checkpoint).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Policy {
-    /// A sample waits at most this long (in sample time, and in wall time) for the vehicle's other
-    /// stream to reach its time; 0 processes every sample on arrival.
+    /// A sample waits at most this long (in sample time, and in wall time since it arrived at the
+    /// service) for the vehicle's other stream to reach its time; 0 processes every sample on arrival.
     pub reorder_window_s: f64,
+    /// A sample older than what the vehicle processed, by at most this much sample time, is fused by
+    /// rolling back to a kept state and replaying (`vehicle::history`); older still, it is refused
+    /// (`out_of_order`). 0 keeps no history.
+    pub max_lag_s: f64,
+    /// Most bytes of kept states and logged samples per vehicle for that history; a vehicle whose
+    /// states do not fit keeps fewer (a shorter lag) or none.
+    pub history_bytes: usize,
     /// A sample further ahead of the vehicle's newest time than this is refused (`time_jump`).
     pub max_jump_s: f64,
     /// χ² threshold (3 degrees of freedom) of the innovation gate, `None` = off.

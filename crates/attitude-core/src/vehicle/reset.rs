@@ -158,6 +158,7 @@ impl VehicleState {
         state.feed_held_rate(seed.t_s)?;
         state.seq = seed.seq;
         state.last_t = Some(seed.t_s);
+        state.last_key = Some(super::Key::at(seed.t_s));
         state.count_reinit("takeover");
         if let Slot::Tracking(filter) = &state.slot {
             state.last_good = Some(filter.estimate());
@@ -205,9 +206,12 @@ impl VehicleState {
             }
             None => self.slot = Slot::Initializing,
         }
+        // Nothing before a reset is replayed after it.
+        self.history.clear();
         if let Some(t) = req.t_s {
             // A reset with a time re-anchors the vehicle's clock (the way back after a jump).
             self.last_t = Some(t);
+            self.last_key = Some(super::Key::at(t));
             self.newest = [None; STREAMS];
             self.first_t = None;
             self.recent = std::array::from_fn(|_| VecDeque::new());

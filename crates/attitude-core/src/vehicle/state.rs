@@ -3,12 +3,12 @@
 
 use super::output::GateCounts;
 use super::policy::VehicleFilterConfig;
-use super::{Held, JumpCandidate, Seen, Slot, Stream, VehicleState, STREAMS};
+use super::{Held, JumpCandidate, Key, Seen, Slot, Stream, VehicleState, STREAMS};
 use crate::ahrs::{Ahrs, AhrsState};
 use crate::filters::{Estimate, FilterState};
 use crate::sensors::imu::SensorState;
 use crate::sensors::{GyroSample, Measurement};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 
 /// A sample waiting in the reorder window. (The wall time it arrived is not kept: after a restore
 /// every held sample is released at the next flush.)
@@ -65,7 +65,7 @@ impl VehicleState {
                 .held
                 .iter()
                 .map(|h| HeldSample {
-                    t_s: h.t_s,
+                    t_s: h.key.t_s,
                     m: h.m.clone(),
                 })
                 .collect(),
@@ -92,7 +92,8 @@ impl VehicleState {
     }
 
     /// The vehicle of a snapshot, its filter and pipeline checked ([`FilterState::restore`],
-    /// [`Ahrs::from_state`]); held samples are released at the next flush. `Err` says what is wrong.
+    /// [`Ahrs::from_state`]); held samples are released at the next flush. The history of late samples
+    /// is not saved: it starts again. `Err` says what is wrong.
     pub fn restore(s: VehicleSnapshot) -> Result<VehicleState, String> {
         let slot = match s.filter {
             None => Slot::Initializing,
@@ -102,6 +103,22 @@ impl VehicleState {
         if s.held.windows(2).any(|w| w[1].t_s < w[0].t_s) {
             return Err("the reorder window is not in time order".into());
         }
+        let mut held: Vec<Held> = s
+            .held
+            .into_iter()
+            .map(|h| Held {
+                key: Key::of(&h.m),
+                held_at_s: f64::NEG_INFINITY,
+                m: h.m,
+            })
+            .collect();
+        // (A checkpoint of an older build has equal times in arrival order: the stable sort gives the
+        // processing order.)
+        held.sort_by(|a, b| {
+            a.key
+                .partial_cmp(&b.key)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         Ok(VehicleState {
             id: s.id.into(),
             config: s.config,
@@ -109,16 +126,12 @@ impl VehicleState {
             seq: s.seq,
             generation: s.generation,
             last_t: s.last_t,
+            last_key: s.last_t.map(Key::at),
             last_gyro: s.last_gyro,
-            held: s
-                .held
-                .into_iter()
-                .map(|h| Held {
-                    t_s: h.t_s,
-                    held_at_s: f64::NEG_INFINITY,
-                    m: h.m,
-                })
-                .collect::<VecDeque<_>>(),
+            held: held.into(),
+            history: Default::default(),
+            late_fused: 0,
+            replaying: false,
             newest: s.newest,
             first_t: s.first_t,
             recent: s
