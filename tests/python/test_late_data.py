@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from attitude_client import AttitudeClient
-from broad_replay import load_trial
+from attitude_client.replay import load_trial
 from conftest import Collector, ServiceProcess, subscribe_synced, wait_until
 from sim import Scenario
 from test_imu_determinism import SPECS, TRIAL, run as replay_broad, start as start_broad
