@@ -36,8 +36,8 @@ pub struct LoadgenArgs {
     #[arg(long)]
     echo: bool,
     /// Send raw IMU samples on P/V/imu instead, N per put (N × --rate samples per second per vehicle),
-    /// each answered by an estimate.
-    #[arg(long, conflicts_with = "echo")]
+    /// each answered by an estimate (by the echo: each put comes back as one message).
+    #[arg(long)]
     imu: Option<usize>,
     /// Print one JSON object instead of a table.
     #[arg(long)]

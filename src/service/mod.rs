@@ -14,12 +14,12 @@ pub use attitude_core::vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use config::ServiceConfig;
-use engine::{Engine, Inbound, Sink};
-use keys::Leaf;
+use engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink};
+use keys::{Keys, Leaf};
 use serde::Serialize;
 use std::collections::BTreeSet;
 use std::future::Future;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use thiserror::Error;
@@ -53,19 +53,25 @@ pub async fn run(
 ) -> Result<(), ServiceError> {
     let publisher = session.clone();
     // Outputs are put from the worker threads (plain threads, so the synchronous `wait` is right);
-    // `Block` applies back-pressure instead of silently dropping estimates.
+    // `Block` applies back-pressure instead of silently dropping estimates. Not `express`: zenoh then
+    // batches the messages that queue up while the link is busy (one write for many under load, the
+    // same latency when idle) instead of a system call per message.
     let sink: Sink = Arc::new(move |key: &str, payload: Vec<u8>| {
         if let Err(e) = publisher
             .put(key, payload)
             .encoding(Encoding::APPLICATION_JSON)
             .congestion_control(CongestionControl::Block)
-            .express(true)
             .wait()
         {
             tracing::warn!(key, error = %e, "put failed");
         }
     });
-    let (engine, threads) = Engine::start(config, sink)?;
+    let (outlets, estimates_watch) = estimate_outlets(
+        &session,
+        &Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles),
+    )
+    .await?;
+    let (engine, threads) = Engine::start_with(config, sink, outlets)?;
     let keys = engine.keys.clone();
 
     let callback = {
@@ -107,6 +113,8 @@ pub async fn run(
         Some(
             session
                 .declare_subscriber(keys.all(Leaf::Estimate))
+                // (Not this instance's own estimates.)
+                .allowed_origin(zenoh::sample::Locality::Remote)
                 .callback(callback)
                 .await
                 .map_err(zerr)?,
@@ -212,6 +220,7 @@ pub async fn run(
         let _ = q.undeclare().await;
     }
     let _ = tokio::task::spawn_blocking(move || threads.shutdown()).await;
+    let _ = estimates_watch.undeclare().await;
     if let Some((token, watcher)) = membership {
         // (Lets the last estimates reach the others before the token's removal does.)
         tokio::time::sleep(Duration::from_millis(100)).await;
@@ -220,6 +229,77 @@ pub async fn run(
     }
     session.close().await.map_err(zerr)?;
     Ok(())
+}
+
+/// Each vehicle's estimates, put on `P/V/estimate` (its key checked once, not at every put) while
+/// any subscriber (of this session or another) matches `P/*/estimate`: a publisher declared on that
+/// wildcard, never put on, has its matching listener keep one flag, and while it is down the engine
+/// does not serialise estimates (queries still answer the last one). One publisher for all: a
+/// declared publisher per vehicle would give each vehicle's put its own cached route and match, but
+/// zenoh 1.10 then resolves every other, undeclared key (every input the vehicles put) against all
+/// those declarations, and the service's receiving thread drowned in it (BENCHMARKS.md, issue 15).
+/// Puts block under congestion rather than drop.
+pub async fn estimate_outlets(
+    session: &zenoh::Session,
+    keys: &keys::Keys,
+) -> Result<(Outlets, zenoh::pubsub::Publisher<'static>), ServiceError> {
+    struct Vehicle {
+        session: zenoh::Session,
+        key: KeyExpr<'static>,
+        anyone: Arc<AtomicBool>,
+    }
+    impl EstimateOutlet for Vehicle {
+        fn wanted(&self) -> bool {
+            self.anyone.load(Ordering::Relaxed)
+        }
+        fn put(&self, payload: Vec<u8>) {
+            let put = self
+                .session
+                .put(self.key.clone(), payload)
+                .encoding(Encoding::APPLICATION_JSON)
+                .congestion_control(CongestionControl::Block);
+            if let Err(e) = put.wait() {
+                tracing::warn!(key = %self.key, error = %e, "put failed");
+            }
+        }
+    }
+    let watch = session
+        .declare_publisher(keys.all(Leaf::Estimate))
+        .await
+        .map_err(zerr)?;
+    let anyone = Arc::new(AtomicBool::new(false));
+    let flag = anyone.clone();
+    // (Called at once with the current status when it matches, then at each change.)
+    watch
+        .matching_listener()
+        .callback(move |s| flag.store(s.matching(), Ordering::Relaxed))
+        .background()
+        .await
+        .map_err(zerr)?;
+    let session = session.clone();
+    let outlets: Outlets = Arc::new(move |key: &str| match KeyExpr::try_from(key.to_string()) {
+        Ok(key) => Box::new(Vehicle {
+            session: session.clone(),
+            key,
+            anyone: anyone.clone(),
+        }) as Box<dyn EstimateOutlet>,
+        Err(e) => {
+            // (Vehicle ids are validated before a vehicle exists: not reached.)
+            tracing::error!(key, error = %e, "not a key expression; its estimates are not put");
+            Box::new(Nowhere)
+        }
+    });
+    Ok((outlets, watch))
+}
+
+/// An outlet that nobody can reach.
+struct Nowhere;
+
+impl EstimateOutlet for Nowhere {
+    fn wanted(&self) -> bool {
+        false
+    }
+    fn put(&self, _: Vec<u8>) {}
 }
 
 /// The liveliness token that makes this instance a member, and the subscriber that follows the

@@ -1,8 +1,14 @@
 //! `attitude-service loadgen`: publishes gyro and vector messages (or raw IMU samples, `--imu N`: puts of
 //! N samples on `P/V/imu`, each sample answered by an estimate) for K vehicles at a fixed rate against a
 //! running service and measures sustained throughput and put→estimate latency; `--echo` measures a bare
-//! zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors`, put the payload back
-//! on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
+//! zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors` and `P/*/imu`, put the
+//! payload back on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
+//!
+//! Its puts have the service's own quality of service: congestion control `Block` (never a silent
+//! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts, not a
+//! publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives against all
+//! the declarations it knows, so thousands of declared keys would cost the receiver (service or echo)
+//! far more than they save.
 
 use crate::service::keys::{Keys, Leaf};
 use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
@@ -12,6 +18,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 
 #[derive(Clone, Debug)]
@@ -87,15 +94,58 @@ pub fn latency_us(
     index: &HashMap<String, usize>,
     pending: &Pending,
 ) -> Option<f64> {
+    let mut latency = None;
+    latencies_us(s, keys, index, pending, |us| latency = Some(us));
+    latency
+}
+
+/// [`latency_us`] of every message a sample answers: one estimate, or an echo of a batch of IMU
+/// samples (an array).
+pub fn latencies_us(
+    s: &zenoh::sample::Sample,
+    keys: &Keys,
+    index: &HashMap<String, usize>,
+    pending: &Pending,
+    mut each: impl FnMut(f64),
+) {
     let now = Instant::now();
-    let (vehicle, _) = keys.split(s.key_expr().as_str())?;
-    let &i = index.get(vehicle)?;
-    let msg = serde_json::from_slice::<JustT>(&s.payload().to_bytes()).ok()?;
-    let sent = pending[i]
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .remove(&time_key(msg.t))?;
-    Some(now.duration_since(sent).as_secs_f64() * 1e6)
+    let Some((vehicle, _)) = keys.split(s.key_expr().as_str()) else {
+        return;
+    };
+    let Some(&i) = index.get(vehicle) else {
+        return;
+    };
+    let payload = s.payload().to_bytes();
+    let mut pending = pending[i].lock().unwrap_or_else(|e| e.into_inner());
+    let mut answer = |t: f64| {
+        if let Some(sent) = pending.remove(&time_key(t)) {
+            each(now.duration_since(sent).as_secs_f64() * 1e6);
+        }
+    };
+    match first_t(&payload) {
+        Some(t) => answer(t),
+        None => {
+            if let Ok(batch) = serde_json::from_slice::<Vec<JustT>>(&payload) {
+                batch.iter().for_each(|m| answer(m.t));
+            } else if let Ok(m) = serde_json::from_slice::<JustT>(&payload) {
+                answer(m.t)
+            }
+        }
+    }
+}
+
+/// The top-level `t` of one JSON object, read without parsing the rest (the load generator reads
+/// every estimate, and must not be what limits the load): the number after the first `"t":`, which
+/// in an estimate follows only `"vehicle"` (an id, without quotes inside) and in an input message
+/// comes first. `None` for anything else (an array, another layout), which is then parsed.
+fn first_t(payload: &[u8]) -> Option<f64> {
+    if payload.first() != Some(&b'{') {
+        return None;
+    }
+    let at = payload.windows(4).position(|w| w == b"\"t\":")? + 4;
+    let rest = &payload[at..];
+    let end = rest.iter().position(|&c| c == b',' || c == b'}')?;
+    std::str::from_utf8(&rest[..end]).ok()?.trim().parse().ok()
 }
 
 /// Waits until every vector message sent has its estimate, at most `limit`.
@@ -124,28 +174,38 @@ pub fn time_key(t: f64) -> i64 {
     (t * 1e6).round() as i64
 }
 
-/// The echo: every vector message comes straight back on the vehicle's estimate key.
-pub async fn echo(
-    session: &zenoh::Session,
-    keys: &Keys,
-) -> Result<zenoh::pubsub::Subscriber<()>, zenoh::Error> {
-    let publisher = session.clone();
-    let k = keys.clone();
-    session
-        .declare_subscriber(keys.all(Leaf::Vectors))
-        .callback(move |s: zenoh::sample::Sample| {
-            if let Some((vehicle, _)) = k.split(s.key_expr().as_str()) {
-                let _ = zenoh::Wait::wait(
-                    publisher
-                        .put(k.vehicle(vehicle, Leaf::Estimate), s.payload().clone())
-                        .encoding(Encoding::APPLICATION_JSON)
-                        // As the service's own puts: back-pressure, never a silent drop.
-                        .congestion_control(CongestionControl::Block)
-                        .express(true),
-                );
-            }
-        })
-        .await
+/// The echo: every vector message (or batch of IMU samples) comes straight back on the vehicle's
+/// estimate key.
+pub async fn echo(session: &zenoh::Session, keys: &Keys) -> Result<Echo, zenoh::Error> {
+    let mut subscribers = Vec::new();
+    for leaf in [Leaf::Vectors, Leaf::Imu] {
+        let publisher = session.clone();
+        let k = keys.clone();
+        subscribers.push(
+            session
+                .declare_subscriber(keys.all(leaf))
+                .callback(move |s: zenoh::sample::Sample| {
+                    if let Some((vehicle, _)) = k.split(s.key_expr().as_str()) {
+                        let _ = zenoh::Wait::wait(
+                            publisher
+                                .put(k.vehicle(vehicle, Leaf::Estimate), s.payload().clone())
+                                .encoding(Encoding::APPLICATION_JSON)
+                                // As the service's own puts: back-pressure, never a silent drop.
+                                .congestion_control(CongestionControl::Block),
+                        );
+                    }
+                })
+                .await?,
+        );
+    }
+    Ok(Echo {
+        _subscribers: subscribers,
+    })
+}
+
+/// The echo's subscribers: it echoes while this lives.
+pub struct Echo {
+    _subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
 }
 
 /// Vehicle `i`'s vector set at `t`: three exact star directions at a fixed attitude.
@@ -250,9 +310,8 @@ pub async fn run(
     let _estimates = session
         .declare_subscriber(keys.all(Leaf::Estimate))
         .callback(move |s: zenoh::sample::Sample| {
-            if let Some(us) = latency_us(&s, &k, &idx, &p) {
-                l.lock().unwrap_or_else(|e| e.into_inner()).push(us);
-            }
+            let mut l = l.lock().unwrap_or_else(|e| e.into_inner());
+            latencies_us(&s, &k, &idx, &p, |us| l.push(us));
         })
         .await?;
     let _rejections = count_rejections(session, keys, index.clone(), rejected.clone()).await?;
@@ -260,12 +319,22 @@ pub async fn run(
     // comes back, so that declarations still propagating are not counted as losses.
     probe(session, keys, &options.vehicle_prefix).await?;
 
-    let put = |key: String, payload: Vec<u8>| {
+    // Each vehicle's keys, checked once.
+    let keys_of = |leaf: Leaf| -> Result<Vec<KeyExpr<'static>>, zenoh::Error> {
+        ids.iter()
+            .map(|v| KeyExpr::try_from(keys.vehicle(v, leaf)))
+            .collect()
+    };
+    let (gyro, vectors, imu) = (
+        keys_of(Leaf::Gyro)?,
+        keys_of(Leaf::Vectors)?,
+        keys_of(Leaf::Imu)?,
+    );
+    let put = |key: &KeyExpr<'static>, payload: Vec<u8>| {
         session
-            .put(key, payload)
+            .put(key.clone(), payload)
             .encoding(Encoding::APPLICATION_JSON)
             .congestion_control(CongestionControl::Block)
-            .express(true)
     };
     if options.imu_batch > 0 {
         // An IMU vehicle aligns from its first samples (no estimate for them): 0.2 s of samples (twice
@@ -273,19 +342,12 @@ pub async fn run(
         // size (one put of thousands of samples would overflow the vehicle's queue and be refused).
         let dt = 1.0 / (options.rate_hz * options.imu_batch as f64);
         let n = (0.2 / dt).ceil() as usize;
-        for (i, v) in ids.iter().enumerate() {
+        for i in 0..ids.len() {
             let warmup: Vec<ImuMsg> = (0..n)
                 .map(|j| imu_sample(-((n - j) as f64) * dt, i))
                 .collect();
             for chunk in warmup.chunks(options.imu_batch) {
-                session
-                    .put(
-                        keys.vehicle(v, Leaf::Imu),
-                        serde_json::to_vec(chunk).unwrap_or_default(),
-                    )
-                    .encoding(Encoding::APPLICATION_JSON)
-                    .congestion_control(CongestionControl::Block)
-                    .await?;
+                put(&imu[i], serde_json::to_vec(chunk).unwrap_or_default()).await?;
             }
         }
         tokio::time::sleep(Duration::from_millis(300)).await;
@@ -294,9 +356,6 @@ pub async fn run(
     let ticks = (options.duration_s * options.rate_hz).round().max(1.0) as u64;
     let start = Instant::now();
     let (mut sent, mut gyro_sent, mut lag_max) = (0u64, 0u64, Duration::ZERO);
-    let gyro_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Gyro)).collect();
-    let vector_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Vectors)).collect();
-    let imu_keys: Vec<String> = ids.iter().map(|v| keys.vehicle(v, Leaf::Imu)).collect();
     for tick in 0..ticks {
         let due = start + period * tick as u32;
         let now = Instant::now();
@@ -307,7 +366,7 @@ pub async fn run(
         }
         let t = tick as f64 / options.rate_hz;
         if options.imu_batch > 0 {
-            for (i, key) in imu_keys.iter().enumerate() {
+            for (i, key) in imu.iter().enumerate() {
                 let n = options.imu_batch;
                 let samples: Vec<ImuMsg> = (0..n)
                     .map(|j| imu_sample(t + j as f64 / (options.rate_hz * n as f64), i))
@@ -320,21 +379,22 @@ pub async fn run(
                         p.insert(time_key(s.t), now);
                     }
                 }
-                put(key.clone(), payload).await?;
+                put(key, payload).await?;
                 sent += n as u64;
             }
             continue;
         }
         for i in 0..ids.len() {
-            let vectors = serde_json::to_vec(&star_set(t, i)).unwrap_or_default();
+            let payload = serde_json::to_vec(&star_set(t, i)).unwrap_or_default();
             pending[i]
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .insert(time_key(t), Instant::now());
-            put(vector_keys[i].clone(), vectors).await?;
+            put(&vectors[i], payload).await?;
             sent += 1;
-            let gyro = serde_json::to_vec(&GyroMsg { t, omega: [0.0; 3] }).unwrap_or_default();
-            put(gyro_keys[i].clone(), gyro).await?;
+            let gyro_payload =
+                serde_json::to_vec(&GyroMsg { t, omega: [0.0; 3] }).unwrap_or_default();
+            put(&gyro[i], gyro_payload).await?;
             gyro_sent += 1;
         }
     }

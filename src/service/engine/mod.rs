@@ -9,10 +9,15 @@
 //! arrival order; a slow vehicle occupies one worker and never blocks the others.
 //!
 //! Files: this one (the types, start and restore, housekeeping, the registry, the dispatcher and the
-//! workers), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the queryables).
+//! workers), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
+//! row of `P/@/vehicles`), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the
+//! queryables).
 
 mod fleet;
+mod output;
 mod queries;
+
+pub use output::{EstimateOutlet, Outlets, Sink};
 
 use super::config::ServiceConfig;
 use super::fleet::{owner, FleetMode};
@@ -29,10 +34,6 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
-
-/// Where the engine's outputs go: `(key, JSON payload)`. The service puts them on zenoh; tests
-/// collect them.
-pub type Sink = Arc<dyn Fn(&str, Vec<u8>) + Send + Sync>;
 
 /// A raw input as received.
 #[derive(Clone)]
@@ -95,7 +96,9 @@ pub struct Vehicle {
     state: Mutex<VehicleState>,
     /// The last published estimate (queries read this, never the filter).
     snapshot: RwLock<Option<Arc<EstimateMsg>>>,
-    info: RwLock<VehicleInfoMsg>,
+    info: output::Info,
+    /// Where its estimates go (made at the first one).
+    outlet: output::Outlet,
     received: AtomicU64,
     processed: AtomicU64,
     rejected: AtomicU64,
@@ -117,14 +120,15 @@ pub struct Vehicle {
 
 impl Vehicle {
     fn new(id: &str, state: VehicleState, counters: SavedCounters) -> Self {
-        let info = info_of(&state);
+        let info = output::Info::of(&state);
         let snapshot = state.estimate().map(|p| Arc::new(EstimateMsg::from(&p)));
         let v = Vehicle {
             id: id.to_string(),
             inbox: Mutex::new(VecDeque::new()),
             scheduled: AtomicBool::new(false),
             snapshot: RwLock::new(snapshot),
-            info: RwLock::new(info),
+            info,
+            outlet: output::Outlet::default(),
             received: AtomicU64::new(counters.received),
             processed: AtomicU64::new(counters.processed),
             rejected: AtomicU64::new(counters.rejected),
@@ -175,11 +179,7 @@ impl Vehicle {
     }
 
     pub fn info(&self) -> VehicleInfoMsg {
-        let mut info = self
-            .info
-            .read()
-            .map(|i| i.clone())
-            .unwrap_or_else(|e| e.into_inner().clone());
+        let mut info = self.info.message(&self.id);
         info.received = self.received.load(Ordering::Relaxed);
         info.processed = self.processed.load(Ordering::Relaxed);
         info.rejected = self.rejected.load(Ordering::Relaxed);
@@ -188,27 +188,7 @@ impl Vehicle {
 }
 
 fn refresh_info(v: &Vehicle, state: &VehicleState) {
-    *v.info.write().unwrap_or_else(|e| e.into_inner()) = info_of(state);
-}
-
-/// The vehicle's row of `P/@/vehicles` from its state; `Vehicle::info` fills in the counters.
-fn info_of(state: &VehicleState) -> VehicleInfoMsg {
-    VehicleInfoMsg {
-        vehicle: state.id().to_string(),
-        state: if state.is_tracking() {
-            "tracking"
-        } else {
-            "initializing"
-        }
-        .into(),
-        filter: state.spec().kind.as_str().into(),
-        fiducial: state.spec().fiducial.map(|f| f.as_str().into()),
-        t: state.last_t(),
-        received: 0,
-        processed: 0,
-        rejected: 0,
-        estimates: state.seq(),
-    }
+    v.info.refresh(state);
 }
 
 /// Inputs a worker takes from one vehicle before giving other vehicles a turn.
@@ -224,6 +204,7 @@ pub struct Engine {
     /// `None` tells a worker to stop.
     work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
     sink: Sink,
+    outlets: Outlets,
     /// Serialises checkpoint writers (the housekeeping thread and the shutdown).
     checkpointing: Mutex<()>,
     fleet: FleetState,
@@ -278,7 +259,7 @@ impl EngineThreads {
         }
         for v in self.engine.vehicles() {
             while !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty() {
-                self.engine.work(&v);
+                self.engine.work(&v, &mut Vec::new());
             }
         }
         self.engine.checkpoint_all();
@@ -292,13 +273,24 @@ const TICK_S: f64 = 0.01;
 pub const INGEST_CAPACITY: usize = 1 << 16;
 
 impl Engine {
-    /// Restores the vehicles checkpointed in the state directory (if one is configured; it is
-    /// created when missing), then starts the dispatcher, `config.workers` worker threads and the
-    /// housekeeping thread (reorder-window ticks, periodic checkpoints). Only an unusable state
-    /// directory is an error; a bad checkpoint file is reported and skipped.
+    /// [`Engine::start_with`] where every estimate is wanted and goes to `sink` too.
     pub fn start(
         config: ServiceConfig,
         sink: Sink,
+    ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
+        let outlets = output::sink_outlets(&sink);
+        Engine::start_with(config, sink, outlets)
+    }
+
+    /// Restores the vehicles checkpointed in the state directory (if one is configured; it is
+    /// created when missing), then starts the dispatcher, `config.workers` worker threads and the
+    /// housekeeping thread (reorder-window ticks, periodic checkpoints). Estimates go to each
+    /// vehicle's outlet of `outlets`, everything else to `sink`. Only an unusable state directory is
+    /// an error; a bad checkpoint file is reported and skipped.
+    pub fn start_with(
+        config: ServiceConfig,
+        sink: Sink,
+        outlets: Outlets,
     ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
         let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Inbound>>(INGEST_CAPACITY);
@@ -318,6 +310,7 @@ impl Engine {
             vehicles: RwLock::new(HashMap::new()),
             work_tx,
             sink,
+            outlets,
             checkpointing: Mutex::new(()),
         });
         engine.restore()?;
@@ -347,8 +340,10 @@ impl Engine {
                 std::thread::Builder::new()
                     .name(format!("attitude-worker-{i}"))
                     .spawn(move || {
+                        // (The events' buffer is the worker's: no allocation per turn.)
+                        let mut events = Vec::new();
                         while let Ok(Some(vehicle)) = rx.recv() {
-                            engine.work(&vehicle);
+                            engine.work(&vehicle, &mut events);
                         }
                     })
                     .expect("spawn a worker thread")
@@ -431,9 +426,19 @@ impl Engine {
                 Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
                 _ => return,
             }
-            for v in self.vehicles() {
-                if v.held.load(Ordering::Relaxed) > 0 && !v.tick_queued.swap(true, Ordering::AcqRel)
-                {
+            // (Every 10 ms: only the vehicles that hold samples, neither sorted nor all cloned.)
+            let holding: Vec<Arc<Vehicle>> = self
+                .vehicles
+                .read()
+                .map(|m| {
+                    m.values()
+                        .filter(|v| v.held.load(Ordering::Relaxed) > 0)
+                        .cloned()
+                        .collect()
+                })
+                .unwrap_or_default();
+            for v in holding {
+                if !v.tick_queued.swap(true, Ordering::AcqRel) {
                     let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
                     // (Stamped under the inbox's lock: stamps never go back along an inbox.)
                     inbox.push_back(Input::Tick(self.now_s()));
@@ -673,9 +678,9 @@ impl Engine {
     }
 
     /// Drains a vehicle's inbox through its filter (a worker thread).
-    fn work(&self, v: &Arc<Vehicle>) {
+    fn work(&self, v: &Arc<Vehicle>, events: &mut Vec<Event>) {
         let policy = &self.config.policy;
-        let mut events = Vec::new();
+        events.clear();
         {
             let mut state = v.state.lock().unwrap_or_else(|e| e.into_inner());
             for _ in 0..TURN {
@@ -689,21 +694,21 @@ impl Engine {
                 match input {
                     Input::Measurement(m, now) => {
                         let stream = super::vehicle::stream_of(&m);
-                        if let Err(r) = state.on_measurement(m, now, policy, &mut events) {
+                        if let Err(r) = state.on_measurement(m, now, policy, events) {
                             self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
-                        self.handle(v, &state, &mut events);
+                        self.handle(v, &state, events);
                     }
                     Input::Tick(now) => {
                         v.tick_queued.store(false, Ordering::Release);
-                        state.on_tick(now, policy, &mut events);
-                        self.handle(v, &state, &mut events);
+                        state.on_tick(now, policy, events);
+                        self.handle(v, &state, events);
                     }
                     Input::Reset(req, reply) => {
                         let base = self.config.filter_for(&v.id).clone();
-                        let result = state.on_reset(&req, &base, policy, &mut events);
+                        let result = state.on_reset(&req, &base, policy, events);
                         // What the reorder window still held is used first.
-                        self.handle(v, &state, &mut events);
+                        self.handle(v, &state, events);
                         // (A refused reset is counted by the query handler that answers it.)
                         refresh_info(v, &state);
                         let result = result.map(|outcome| {
@@ -758,24 +763,6 @@ impl Engine {
                 }
             }
         }
-    }
-
-    fn publish_estimate(&self, v: &Vehicle, mut e: EstimateMsg) {
-        e.diagnostics.rejected = v
-            .rejected_by_code
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone();
-        let payload = match serde_json::to_vec(&e) {
-            Ok(p) => p,
-            Err(err) => {
-                tracing::error!(vehicle = %v.id, %err, "cannot serialise an estimate");
-                return;
-            }
-        };
-        *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(e));
-        self.counters.estimates.fetch_add(1, Ordering::Relaxed);
-        (self.sink)(&self.keys.vehicle(&v.id, Leaf::Estimate), payload);
     }
 }
 

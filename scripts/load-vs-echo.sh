@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# The service under `loadgen` against `loadgen --echo`, alternating in one session, so that every figure
+# has its baseline measured in the same minutes of this shared machine (issue 15, deliver 3).
+#
+#   scripts/load-vs-echo.sh [-r ROUNDS] [-d SECONDS] [-b BINARY] [-o OTHER_BINARY] [CASE ...]
+#
+# Cases (default: qpf mekf imu):
+#   qpf   1000 vehicles × 10 Hz, a vector set (three stars) and a gyro sample each per tick,
+#         qpf:average with 1000 particles;                      target p99 ≤ 3× the echo's, nothing lost
+#   mekf  the same load with the MEKF;                          target p99 ≤ 2× the echo's, nothing lost
+#   imu   10 vehicles replaying raw IMU samples at once, 100 samples per put, 100 puts/s each:
+#         100 000 samples/s, config/imu.json5 (the MEKF), an estimate per sample; target ≥ 100 000/s
+# Each round runs, per case, the echo, then the service of BINARY (default target/release), then (with
+# -o) the service of OTHER_BINARY (e.g. a build of main), each on a fresh service process. It prints
+# one line per run (estimates/s, lost, rejected, p50, p99, max, the service's CPU seconds per 1000
+# estimates and its peak RSS) and, per case, the median over the rounds of each run's p99 over the
+# echo's p99 of the same round. The raw JSON of every run stays in the output folder it names.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+rounds=1; dur=20; bin=target/release/attitude-service; other=""
+while getopts "r:d:b:o:" opt; do
+  case $opt in
+    r) rounds=$OPTARG ;; d) dur=$OPTARG ;; b) bin=$OPTARG ;; o) other=$OPTARG ;;
+    *) sed -n 4,18p "$0"; exit 2 ;;
+  esac
+done
+shift $((OPTIND - 1))
+cases=("${@:-qpf mekf imu}")
+read -r -a cases <<< "${cases[*]}"
+out=$(mktemp -d /tmp/load-vs-echo.XXXXXX)
+conf=$out/conf; mkdir -p "$conf"
+echo '{ service: { filter: { kind: "qpf", fiducial: "average", particles: 1000 } } }' > "$conf/qpf.json5"
+echo '{ service: { filter: { kind: "mekf" } } }' > "$conf/mekf.json5"
+cp config/imu.json5 "$conf/imu.json5"
+port=$((20000 + RANDOM % 20000))
+
+load_args() { # the loadgen options of a case
+  case $1 in
+    qpf|mekf) echo "--vehicles 1000 --rate 10 --duration $dur" ;;
+    imu) echo "--vehicles 10 --imu 100 --rate 100 --duration $dur" ;;
+  esac
+}
+
+# run CASE LABEL [BINARY]: the echo when BINARY is empty, else that binary's service.
+run() {
+  local case=$1 label=$2 b=${3:-} json=$out/$1-$2-$4.json
+  # shellcheck disable=SC2046
+  if [[ -z $b ]]; then
+    $bin loadgen $(load_args "$case") --echo --json > "$json"
+    echo '{}' > "$json.service"
+  else
+    port=$((port + 1))
+    $b serve --config "$conf/$case.json5" --listen "tcp/127.0.0.1:$port" 2> "$json.log" &
+    local pid=$!
+    sleep 1
+    local peak=0 cpu0 cpu1
+    cpu0=$(awk '{print $14 + $15}' "/proc/$pid/stat")
+    # shellcheck disable=SC2046
+    $bin loadgen $(load_args "$case") --connect "tcp/127.0.0.1:$port" --json > "$json" &
+    local lg=$!
+    while kill -0 $lg 2> /dev/null; do
+      local rss; rss=$(awk '/VmRSS/{print $2}' "/proc/$pid/status" 2> /dev/null || echo 0)
+      (( rss > peak )) && peak=$rss
+      sleep 0.5
+    done
+    wait $lg
+    cpu1=$(awk '{print $14 + $15}' "/proc/$pid/stat")
+    kill -TERM $pid; wait $pid || true
+    echo "{\"cpu_s\": $(( cpu1 - cpu0 ))e-2, \"rss_peak_kb\": $peak}" > "$json.service"
+  fi
+  jq -s -r --arg l "$label" --arg c "$case" '.[0] * .[1] | [$c, $l, (.rate_per_s|floor), .lost, .rejected,
+      (.p50_us/1000*100|round/100), (.p99_us/1000*100|round/100), (.max_us/1000*100|round/100),
+      (if .cpu_s then (.cpu_s / .estimates * 1000 * 1000 | round / 1000) else "-" end),
+      (if .rss_peak_kb then (.rss_peak_kb/1024|round) else "-" end), (.send_lag_max_ms*10|round/10)]
+      | @tsv' "$json" "$json.service"
+}
+
+echo "output: $out; $rounds round(s) of ${cases[*]}, $dur s each; binary $bin${other:+, other $other}"
+printf 'case\trun\test/s\tlost\trej\tp50ms\tp99ms\tmaxms\tcpu_ms/1k\trssMB\tlag_ms\n'
+for r in $(seq 1 "$rounds"); do
+  for c in "${cases[@]}"; do
+    run "$c" echo "" "$r"
+    run "$c" service "$bin" "$r"
+    [[ -n $other ]] && run "$c" other "$other" "$r"
+  done
+done
+python3 - "$out" "$rounds" "${cases[@]}" <<'PY'
+import json, os, statistics, sys
+out, rounds, cases = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+load = lambda c, l, r: json.load(open(f"{out}/{c}-{l}-{r}.json"))
+print("\nmedian over rounds of p99 / the same round's echo p99:")
+for c in cases:
+    for l in ("service", "other"):
+        if not os.path.exists(f"{out}/{c}-{l}-1.json"):
+            continue
+        ratios = [load(c, l, r)["p99_us"] / load(c, "echo", r)["p99_us"] for r in range(1, rounds + 1)]
+        lost = sum(load(c, l, r)["lost"] for r in range(1, rounds + 1))
+        rate = statistics.median(load(c, l, r)["rate_per_s"] for r in range(1, rounds + 1))
+        print(f"  {c:5s} {l:8s} p99 ratio {statistics.median(ratios):6.2f} (rounds: {', '.join(f'{x:.2f}' for x in ratios)}); "
+              f"lost {lost}; estimates/s {rate:.0f}")
+PY
