@@ -17,17 +17,20 @@
 //! in-order run publishes. Samples are counted (processed, refused) once, when first processed; the
 //! late sample itself is counted when it is fused.
 //!
-//! **Memory.** A kept state is the filter's plain-data state ([`FilterState`]: about 0.5 kB for the
-//! MEKF, 2 kB for USQUE, 64 bytes per particle for the QPF) plus the vehicle's processing state
-//! (the IMU pipeline, the sensor models' state, the gate counts: about 1.5 kB). A state is kept every
+//! **Memory.** A kept state is the filter's plain-data state ([`FilterState`]) and the rest of the
+//! vehicle's processing state: about 2.6 kB for the MEKF or USQUE (4.2 kB with the IMU pipeline of a
+//! vehicle fed `P/V/imu`), plus 64 bytes per particle for the QPF (the cloud). A state is kept every
 //! `max_lag / KEPT_PER_LAG` of sample time, so at most `KEPT_PER_LAG + 2` are held; the log holds the
-//! samples of the lag and one interval more. Everything together is capped at `time.history_bytes`
-//! per vehicle: states that do not fit as often are kept more rarely, down to one per lag; when even
-//! that exceeds the cap the oldest go first (the history covers less than the lag, and a sample
-//! beyond what it covers is refused `out_of_order` as before); a vehicle whose single state exceeds
-//! the cap keeps no history at all (a QPF of 10⁶ particles: 64 MB a state). The history is not part of
-//! a checkpoint: a restored vehicle starts a new one, and until it covers the lag a sample older than
-//! the restored state is refused.
+//! samples of the lag and one interval more (112 bytes a gyro or IMU sample). A star-tracker
+//! spacecraft (10 Hz gyro, 1 Hz sets, the default 2 s lag) holds under 30 kB with a Kalman filter,
+//! about 540 kB with a QPF of 1000 particles, 5.2 MB with 10⁴; a 100 Hz IMU vehicle about 62 kB
+//! (`tests.rs` pins these). Everything together is capped at `time.history_bytes` per vehicle
+//! (default 8 MiB): states that do not fit as often are kept more rarely, down to one per lag; when
+//! even that exceeds the cap the oldest go first (the history covers less than the lag, and a sample
+//! beyond what it covers is refused `out_of_order` as before); a vehicle whose single state exceeds the
+//! cap keeps no history at all (a QPF of 10⁶ particles: 64 MB a state). The history is not part of a
+//! checkpoint: a restored vehicle starts a new one, and until it covers the lag a sample older than the
+//! restored state is refused.
 
 use super::*;
 use crate::filters::FilterState;
@@ -77,7 +80,8 @@ struct Processing {
     reinits: BTreeMap<String, u64>,
     last_good: Option<Estimate>,
     sensor_state: BTreeMap<String, SensorState>,
-    ahrs: Option<Ahrs>,
+    /// (Boxed: a vehicle fed vectors has none, and the pipeline is 1.6 kB.)
+    ahrs: Option<Box<Ahrs>>,
     last_imu_estimate_t: Option<f64>,
 }
 
@@ -219,13 +223,14 @@ impl VehicleState {
     }
 
     /// What a kept state of this vehicle costs, estimated before making it.
-    fn kept_bytes(&self) -> usize {
+    pub(super) fn kept_bytes(&self) -> usize {
         std::mem::size_of::<Kept>()
             + std::mem::size_of::<Processing>()
             + filter_heap_bytes(match self.slot {
                 Slot::Tracking(_) => self.particles(),
                 Slot::Initializing => None,
             })
+            + self.ahrs.as_ref().map_or(0, std::mem::size_of_val)
             + map_bytes(&self.gate)
             + map_bytes(&self.reinits)
             + map_bytes(&self.sensor_state)
@@ -249,7 +254,7 @@ impl VehicleState {
             reinits: self.reinits.clone(),
             last_good: self.last_good.clone(),
             sensor_state: self.sensor_state.clone(),
-            ahrs: self.ahrs.clone(),
+            ahrs: self.ahrs.clone().map(Box::new),
             last_imu_estimate_t: self.last_imu_estimate_t,
         }
     }
@@ -357,7 +362,7 @@ impl VehicleState {
         self.reinits = s.reinits.clone();
         self.last_good = s.last_good.clone();
         self.sensor_state = s.sensor_state.clone();
-        self.ahrs = s.ahrs.clone();
+        self.ahrs = s.ahrs.as_deref().cloned();
         self.last_imu_estimate_t = s.last_imu_estimate_t;
         let key = Key::of(&m);
         let i = again.partition_point(|l| l.key <= key);
