@@ -73,7 +73,7 @@ impl Lowpass3 {
             self.y = Some([v, v]);
             return Some(*x);
         }
-        let Some(y) = &mut self.y else {
+        let Some(y) = &self.y else {
             // The steady state of a constant input x.
             let v = Vector3::from(*x);
             self.x = [v, v];
@@ -88,19 +88,13 @@ impl Lowpass3 {
             self.c = coefficients(self.tau_s, dt_s);
             self.dt_s = dt_s;
         }
-        let [b0, b1, b2, a1, a2] = self.c;
-        // (Per component, in the order of x b₀ + x₁ b₁ + x₂ b₂ − y₁ a₁ − y₂ a₂.)
-        let (x1, x2, y1, y2) = (&self.x[0], &self.x[1], &y[0], &y[1]);
-        let out: [f64; 3] =
-            std::array::from_fn(|i| x[i] * b0 + x1[i] * b1 + x2[i] * b2 - y1[i] * a1 - y2[i] * a2);
+        let x = Vector3::from(*x);
+        let out = self.recursion(&x);
         // Finite: 0·v is 0 for a finite v and NaN otherwise.
         if out[0] * 0.0 + out[1] * 0.0 + out[2] * 0.0 != 0.0 {
             return None;
         }
-        self.x[1] = self.x[0];
-        self.x[0] = Vector3::from(*x);
-        y[1] = y[0];
-        y[0] = Vector3::from(out);
+        self.shift(&x, &Vector3::from(out));
         Some(out)
     }
 
@@ -124,35 +118,39 @@ impl Lowpass3 {
         dt_s: f64,
     ) -> (Vector3<f64>, Vector3<f64>) {
         if dt_s > 0.0 && dt_s < f64::INFINITY && a.steady(dt_s) && b.steady(dt_s) {
-            if let (Some(ya), Some(yb)) = (&mut a.y, &mut b.y) {
-                let lane = |k: usize| if k < 3 { &a.c } else { &b.c };
-                let c: [[f64; 6]; 5] = std::array::from_fn(|j| std::array::from_fn(|k| lane(k)[j]));
-                let pick = |u: &Vector3<f64>, v: &Vector3<f64>| -> [f64; 6] {
-                    [u[0], u[1], u[2], v[0], v[1], v[2]]
-                };
-                let x = pick(xa, xb);
-                let (x1, x2) = (pick(&a.x[0], &b.x[0]), pick(&a.x[1], &b.x[1]));
-                let (y1, y2) = (pick(&ya[0], &yb[0]), pick(&ya[1], &yb[1]));
-                let out: [f64; 6] = std::array::from_fn(|i| {
-                    x[i] * c[0][i] + x1[i] * c[1][i] + x2[i] * c[2][i]
-                        - y1[i] * c[3][i]
-                        - y2[i] * c[4][i]
-                });
-                let zero: f64 = out.iter().map(|v| v * 0.0).sum();
-                if zero == 0.0 {
-                    let (oa, ob) = (
-                        Vector3::new(out[0], out[1], out[2]),
-                        Vector3::new(out[3], out[4], out[5]),
-                    );
-                    a.x = [*xa, a.x[0]];
-                    b.x = [*xb, b.x[0]];
-                    *ya = [oa, ya[0]];
-                    *yb = [ob, yb[0]];
-                    return (oa, ob);
-                }
+            let (oa, ob) = (a.recursion(xa), b.recursion(xb));
+            let zero: f64 = oa.iter().chain(&ob).map(|v| v * 0.0).sum();
+            if zero == 0.0 {
+                let (oa, ob) = (Vector3::from(oa), Vector3::from(ob));
+                a.shift(xa, &oa);
+                b.shift(xb, &ob);
+                return (oa, ob);
             }
         }
         (a.update(xa, dt_s), b.update(xb, dt_s))
+    }
+
+    /// The recursion's output for the input `x` (a started filter with its coefficients), per
+    /// component in the order of `x b₀ + x₁ b₁ + x₂ b₂ − y₁ a₁ − y₂ a₂`.
+    #[inline(always)]
+    fn recursion(&self, x: &Vector3<f64>) -> [f64; 3] {
+        let [b0, b1, b2, a1, a2] = self.c;
+        let (x1, x2) = (&self.x[0], &self.x[1]);
+        let Some([y1, y2]) = &self.y else {
+            return [f64::NAN; 3];
+        };
+        std::array::from_fn(|i| x[i] * b0 + x1[i] * b1 + x2[i] * b2 - y1[i] * a1 - y2[i] * a2)
+    }
+
+    /// Takes the input `x` and the output `y` into the state.
+    #[inline(always)]
+    fn shift(&mut self, x: &Vector3<f64>, y: &Vector3<f64>) {
+        self.x[1] = self.x[0];
+        self.x[0] = *x;
+        if let Some(h) = &mut self.y {
+            h[1] = h[0];
+            h[0] = *y;
+        }
     }
 
     /// Restarts rather than carry a non-finite state.
