@@ -70,13 +70,13 @@ run() {
   fi
   jq -s -r --arg l "$label" --arg c "$case" '.[0] * .[1] | [$c, $l, (.rate_per_s|floor), .lost, .rejected,
       (.p50_us/1000*100|round/100), (.p99_us/1000*100|round/100), (.max_us/1000*100|round/100),
-      (if .cpu_s then (.cpu_s / .estimates * 1000 * 1000 | round / 1000) else "-" end),
+      (if .cpu_s then (.cpu_s / .estimates * 1e7 | round / 10) else "-" end),
       (if .rss_peak_kb then (.rss_peak_kb/1024|round) else "-" end), (.send_lag_max_ms*10|round/10)]
       | @tsv' "$json" "$json.service"
 }
 
 echo "output: $out; $rounds round(s) of ${cases[*]}, $dur s each; binary $bin${other:+, other $other}"
-printf 'case\trun\test/s\tlost\trej\tp50ms\tp99ms\tmaxms\tcpu_ms/1k\trssMB\tlag_ms\n'
+printf 'case\trun\test/s\tlost\trej\tp50ms\tp99ms\tmaxms\tcpu_us/est\trssMB\tlag_ms\n'
 for r in $(seq 1 "$rounds"); do
   for c in "${cases[@]}"; do
     run "$c" echo "" "$r"

@@ -39,6 +39,11 @@ pub struct LoadgenArgs {
     /// each answered by an estimate (by the echo: each put comes back as one message).
     #[arg(long)]
     imu: Option<usize>,
+    /// With --imu, against a service that caps its IMU estimates (service.imu.max_estimate_rate_hz):
+    /// an estimate answers every sample of its vehicle up to its t, and one more sample per vehicle,
+    /// 1 s after the run and not counted, has the last ones answered.
+    #[arg(long, requires = "imu")]
+    capped: bool,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -81,6 +86,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         vehicle_prefix: args.vehicle_prefix.clone(),
         drain_s: 5.0,
         imu_batch: args.imu.unwrap_or(0),
+        covering: args.capped,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

@@ -27,6 +27,7 @@ use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
+use zenoh::sample::Locality;
 use zenoh::Wait;
 
 #[derive(Debug, Error)]
@@ -114,7 +115,7 @@ pub async fn run(
             session
                 .declare_subscriber(keys.all(Leaf::Estimate))
                 // (Not this instance's own estimates.)
-                .allowed_origin(zenoh::sample::Locality::Remote)
+                .allowed_origin(Locality::Remote)
                 .callback(callback)
                 .await
                 .map_err(zerr)?,
@@ -232,7 +233,8 @@ pub async fn run(
 }
 
 /// Each vehicle's estimates, put on `P/V/estimate` (its key checked once, not at every put) while
-/// any subscriber (of this session or another) matches `P/*/estimate`: a publisher declared on that
+/// any subscriber of another session matches `P/*/estimate` (this session's own, a fleet member's
+/// follower of the others' estimates, takes none of them): a publisher declared on that
 /// wildcard, never put on, has its matching listener keep one flag, and while it is down the engine
 /// does not serialise estimates (queries still answer the last one). One publisher for all: a
 /// declared publisher per vehicle would give each vehicle's put its own cached route and match, but
@@ -257,7 +259,8 @@ pub async fn estimate_outlets(
                 .session
                 .put(self.key.clone(), payload)
                 .encoding(Encoding::APPLICATION_JSON)
-                .congestion_control(CongestionControl::Block);
+                .congestion_control(CongestionControl::Block)
+                .allowed_destination(Locality::Remote);
             if let Err(e) = put.wait() {
                 tracing::warn!(key = %self.key, error = %e, "put failed");
             }
@@ -265,6 +268,7 @@ pub async fn estimate_outlets(
     }
     let watch = session
         .declare_publisher(keys.all(Leaf::Estimate))
+        .allowed_destination(Locality::Remote)
         .await
         .map_err(zerr)?;
     let anyone = Arc::new(AtomicBool::new(false));

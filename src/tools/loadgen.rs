@@ -13,7 +13,7 @@
 use crate::service::keys::{Keys, Leaf};
 use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -34,6 +34,11 @@ pub struct LoadOptions {
     /// 0: gyro and vector messages. N > 0: raw IMU samples instead, N per put (a sample rate of
     /// `rate_hz · N` per vehicle), every one of which must come back as an estimate.
     pub imu_batch: usize,
+    /// IMU samples against a service that caps its estimate rate (`service.imu.max_estimate_rate_hz`):
+    /// an estimate answers every sample of its vehicle up to its `t` (all of them went through the
+    /// filter, in order, before it), and after the run one more sample per vehicle, 1 s later and not
+    /// counted, has the last samples answered too.
+    pub covering: bool,
 }
 
 /// The report (`--json` prints it as one object).
@@ -48,8 +53,11 @@ pub struct LoadReport {
     /// are sent too (not with IMU samples).
     pub sent: u64,
     pub gyro_sent: u64,
-    /// Estimates (or echoes) received for the vector messages sent.
+    /// Vector messages (or IMU samples) answered by an estimate (or echo).
     pub estimates: u64,
+    /// Estimate (or echo) messages received for them (fewer than `estimates` with `covering`, or
+    /// from the echo of IMU batches).
+    pub messages: u64,
     /// Vector messages without an estimate after the drain period.
     pub lost: u64,
     /// Rejections published by the service for these vehicles.
@@ -84,7 +92,7 @@ pub async fn count_rejections(
 }
 
 /// Sent-time of each vector message still waiting for its estimate, per vehicle, by `time_key(t)`.
-pub type Pending = Vec<Mutex<HashMap<i64, Instant>>>;
+pub type Pending = Vec<Mutex<BTreeMap<i64, Instant>>>;
 
 /// Put→estimate latency, µs, of an estimate (or echo) sample: matches it with its vector message by
 /// vehicle and `t` and forgets that message. `None` for a sample that is not one of ours.
@@ -95,17 +103,18 @@ pub fn latency_us(
     pending: &Pending,
 ) -> Option<f64> {
     let mut latency = None;
-    latencies_us(s, keys, index, pending, |us| latency = Some(us));
+    latencies_us(s, keys, index, pending, false, |us| latency = Some(us));
     latency
 }
 
 /// [`latency_us`] of every message a sample answers: one estimate, or an echo of a batch of IMU
-/// samples (an array).
+/// samples (an array); `covering`: an estimate answers every message of its vehicle up to its `t`.
 pub fn latencies_us(
     s: &zenoh::sample::Sample,
     keys: &Keys,
     index: &HashMap<String, usize>,
     pending: &Pending,
+    covering: bool,
     mut each: impl FnMut(f64),
 ) {
     let now = Instant::now();
@@ -118,8 +127,14 @@ pub fn latencies_us(
     let payload = s.payload().to_bytes();
     let mut pending = pending[i].lock().unwrap_or_else(|e| e.into_inner());
     let mut answer = |t: f64| {
-        if let Some(sent) = pending.remove(&time_key(t)) {
-            each(now.duration_since(sent).as_secs_f64() * 1e6);
+        let latency = |sent: Instant| now.duration_since(sent).as_secs_f64() * 1e6;
+        if covering {
+            let later = pending.split_off(&(time_key(t) + 1));
+            for sent in std::mem::replace(&mut *pending, later).into_values() {
+                each(latency(sent));
+            }
+        } else if let Some(sent) = pending.remove(&time_key(t)) {
+            each(latency(sent));
         }
     };
     match first_t(&payload) {
@@ -296,22 +311,32 @@ pub async fn run(
         .map(|(i, v)| (v, i))
         .collect();
     // Per vehicle: send instant of each outstanding vector message, by time stamp.
-    let pending: Arc<Vec<Mutex<HashMap<i64, Instant>>>> =
-        Arc::new((0..ids.len()).map(|_| Mutex::new(HashMap::new())).collect());
+    let pending: Arc<Pending> = Arc::new(
+        (0..ids.len())
+            .map(|_| Mutex::new(BTreeMap::new()))
+            .collect(),
+    );
     let latencies: Arc<Mutex<Vec<f64>>> = Arc::new(Mutex::new(Vec::new()));
     let rejected = Arc::new(AtomicU64::new(0));
+    let messages = Arc::new(AtomicU64::new(0));
 
-    let (p, l, k, idx) = (
+    let (p, l, k, idx, m) = (
         pending.clone(),
         latencies.clone(),
         keys.clone(),
         index.clone(),
+        messages.clone(),
     );
+    let covering = options.covering && options.imu_batch > 0;
     let _estimates = session
         .declare_subscriber(keys.all(Leaf::Estimate))
         .callback(move |s: zenoh::sample::Sample| {
             let mut l = l.lock().unwrap_or_else(|e| e.into_inner());
-            latencies_us(&s, &k, &idx, &p, |us| l.push(us));
+            let before = l.len();
+            latencies_us(&s, &k, &idx, &p, covering, |us| l.push(us));
+            if l.len() > before {
+                m.fetch_add(1, Ordering::Relaxed);
+            }
         })
         .await?;
     let _rejections = count_rejections(session, keys, index.clone(), rejected.clone()).await?;
@@ -399,6 +424,18 @@ pub async fn run(
         }
     }
     let sending = start.elapsed().as_secs_f64();
+    if covering {
+        // One sample per vehicle 1 s after its last, not counted: its estimate is due whatever the
+        // cap (from 1 Hz on) and answers the samples the last published estimate did not cover.
+        let t = ticks as f64 / options.rate_hz + 1.0;
+        for (i, key) in imu.iter().enumerate() {
+            put(
+                key,
+                serde_json::to_vec(&imu_sample(t, i)).unwrap_or_default(),
+            )
+            .await?;
+        }
+    }
     drain(&pending, Duration::from_secs_f64(options.drain_s)).await;
     let mut lat = latencies.lock().unwrap_or_else(|e| e.into_inner()).clone();
     lat.sort_by(f64::total_cmp);
@@ -418,6 +455,7 @@ pub async fn run(
         sent,
         gyro_sent,
         estimates,
+        messages: messages.load(Ordering::Relaxed),
         lost: sent.saturating_sub(estimates),
         rejected: rejected.load(Ordering::Relaxed),
         rate_per_s: estimates as f64 / sending,
@@ -431,9 +469,9 @@ pub async fn run(
 impl LoadReport {
     pub fn table(&self) -> String {
         format!(
-            "{} load: {} vehicles × {} Hz for {} s\n  sent {} vector + {} gyro messages; {} estimates ({:.0}/s), {} lost, {} rejected\n  put→estimate latency p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs; sender lag max {:.1} ms\n",
+            "{} load: {} vehicles × {} Hz for {} s\n  sent {} vector (or IMU) + {} gyro messages; {} answered ({:.0}/s) by {} messages, {} lost, {} rejected\n  put→estimate latency p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs; sender lag max {:.1} ms\n",
             self.mode, self.vehicles, self.rate_hz, self.duration_s, self.sent, self.gyro_sent, self.estimates,
-            self.rate_per_s, self.lost, self.rejected, self.p50_us, self.p99_us, self.max_us, self.send_lag_max_ms
+            self.rate_per_s, self.messages, self.lost, self.rejected, self.p50_us, self.p99_us, self.max_us, self.send_lag_max_ms
         )
     }
 }

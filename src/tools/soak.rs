@@ -11,7 +11,9 @@
 
 use crate::filters::FilterSpec;
 use crate::service::keys::{Keys, Leaf};
-use crate::tools::loadgen::{count_rejections, drain, latency_us, probe, star_set, time_key};
+use crate::tools::loadgen::{
+    count_rejections, drain, latency_us, probe, star_set, time_key, Pending,
+};
 use crate::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -406,8 +408,11 @@ async fn load(
         .collect();
     let index: HashMap<String, usize> = ids.iter().cloned().zip(0..).collect();
     // Per vehicle: the send instant of each outstanding vector message, by time stamp.
-    let pending: Arc<Vec<Mutex<HashMap<i64, Instant>>>> =
-        Arc::new((0..ids.len()).map(|_| Mutex::new(HashMap::new())).collect());
+    let pending: Arc<Pending> = Arc::new(
+        (0..ids.len())
+            .map(|_| Mutex::new(Default::default()))
+            .collect(),
+    );
     let window = Arc::new(Mutex::new(Window::default()));
     let rejected = Arc::new(AtomicU64::new(0));
     let zerr = |e: zenoh::Error| SoakError::Zenoh(e.to_string());

@@ -144,7 +144,8 @@ impl Default for InputLimits {
     }
 }
 
-fn finite3(v: &[f64; 3], what: &str) -> Result<Vector3<f64>, Rejection> {
+/// (`what` names the field in a rejection; it is formatted only then.)
+fn finite3(v: &[f64; 3], what: impl fmt::Display) -> Result<Vector3<f64>, Rejection> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(Vector3::new(v[0], v[1], v[2]))
     } else {
@@ -168,7 +169,7 @@ fn finite_time(t: f64) -> Result<f64, Rejection> {
     }
 }
 
-fn within(v: f64, what: &str) -> Result<(), Rejection> {
+fn within(v: f64, what: impl fmt::Display) -> Result<(), Rejection> {
     if v > MAX_MAGNITUDE {
         Err(Rejection::new(
             RejectCode::OutOfRange,
@@ -201,8 +202,8 @@ impl GyroMsg {
 
 impl ObservationMsg {
     pub fn to_domain(&self, index: usize) -> Result<VectorObservation, Rejection> {
-        let body = finite3(&self.body, &format!("obs[{index}].body"))?;
-        let reference = finite3(&self.reference, &format!("obs[{index}].ref"))?;
+        let body = finite3(&self.body, format_args!("obs[{index}].body"))?;
+        let reference = finite3(&self.reference, format_args!("obs[{index}].ref"))?;
         if !self.sigma.is_finite() {
             return Err(Rejection::new(
                 RejectCode::NonFinite,
@@ -215,9 +216,9 @@ impl ObservationMsg {
                 format!("obs[{index}].sigma must be positive, got {}", self.sigma),
             ));
         }
-        within(self.sigma, &format!("obs[{index}].sigma"))?;
+        within(self.sigma, format_args!("obs[{index}].sigma"))?;
         for (v, name) in [(&body, "body"), (&reference, "ref")] {
-            within(v.amax(), &format!("obs[{index}].{name}"))?;
+            within(v.amax(), format_args!("obs[{index}].{name}"))?;
             if v.norm() < MIN_VECTOR_NORM {
                 return Err(Rejection::new(
                     RejectCode::ZeroVector,
@@ -317,17 +318,56 @@ pub fn decode_batch<T: DeserializeOwned>(
     payload: &[u8],
     limits: &InputLimits,
 ) -> Result<Vec<T>, Rejection> {
+    let mut items = Vec::new();
+    decode_batch_into(payload, limits, Ok, &mut items).map(|_| items)
+}
+
+/// Decodes a payload as [`decode_batch`] does, straight into domain values: `convert` validates each
+/// item as soon as it is read and its value is appended to `out` (no list of messages in between);
+/// returns how many. Faults rank as in `decode_batch` (text that is not JSON, a batch over the limit,
+/// an item of the wrong shape), then the first item `convert` refuses, named by its index in a batch
+/// of more than one. On a fault `out` is left as it was.
+pub fn decode_batch_into<T: DeserializeOwned, M>(
+    payload: &[u8],
+    limits: &InputLimits,
+    mut convert: impl FnMut(T) -> Result<M, Rejection>,
+    out: &mut Vec<M>,
+) -> Result<usize, Rejection> {
     let text = text_of(payload, limits)?;
+    let start = out.len();
     let item = Cell::new(None);
+    let mut invalid: Option<(usize, Rejection)> = None;
+    let mut each = |i: usize, m: T| {
+        if invalid.is_none() {
+            match convert(m) {
+                Ok(v) => out.push(v),
+                Err(r) => invalid = Some((i, r)),
+            }
+        }
+    };
     let mut de = serde_json::Deserializer::from_str(text);
     let one_or_many = OneOrMany {
         max_batch: limits.max_batch,
         item: &item,
-        of: PhantomData,
+        each: &mut each,
     };
-    de.deserialize_any(one_or_many)
-        .and_then(|items| de.end().map(|()| items))
-        .map_err(|e| refused(e, text, Some(limits.max_batch), item.get()))
+    let read = de
+        .deserialize_any(one_or_many)
+        .and_then(|n| de.end().map(|()| n))
+        .map_err(|e| refused(e, text, Some(limits.max_batch), item.get()));
+    let result = match (read, invalid) {
+        (Err(r), _) => Err(r),
+        (Ok(n), Some((i, r))) if n > 1 => Err(Rejection::new(
+            r.code,
+            format!("batch item {i}: {}", r.message),
+        )),
+        (Ok(_), Some((_, r))) => Err(r),
+        (Ok(n), None) => Ok(n),
+    };
+    if result.is_err() {
+        out.truncate(start);
+    }
+    result
 }
 
 /// The rejection of a payload serde refused. serde stops at the first fault in the text, but the
@@ -419,26 +459,28 @@ impl<'de> Visitor<'de> for Checking {
 }
 
 /// The top level of a `decode_batch` payload: one message (an object) or a non-empty array of at most
-/// `max_batch` of them. `item` tells `refused` which item failed.
+/// `max_batch` of them, each handed to `each` with its index as it is read; the value is their count.
+/// `item` tells `refused` which item failed.
 struct OneOrMany<'a, T> {
     max_batch: usize,
     item: &'a Cell<Option<usize>>,
-    of: PhantomData<T>,
+    each: &'a mut dyn FnMut(usize, T),
 }
 
 impl<'de, T: Deserialize<'de>> Visitor<'de> for OneOrMany<'_, T> {
-    type Value = Vec<T>;
+    type Value = usize;
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a JSON object or an array of them")
     }
-    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Vec<T>, A::Error> {
-        T::deserialize(MapAccessDeserializer::new(map)).map(|m| vec![m])
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<usize, A::Error> {
+        (self.each)(0, T::deserialize(MapAccessDeserializer::new(map))?);
+        Ok(1)
     }
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
-        let mut items = Vec::new();
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<usize, A::Error> {
+        let mut n = 0;
         loop {
-            self.item.set(Some(items.len()));
-            if items.len() == self.max_batch {
+            self.item.set(Some(n));
+            if n == self.max_batch {
                 // One more is one too many, whatever it holds (`refused` counts them all).
                 if seq.next_element::<IgnoredAny>()?.is_some() {
                     return Err(de::Error::custom("batch too large"));
@@ -446,15 +488,16 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for OneOrMany<'_, T> {
                 break;
             }
             match seq.next_element_seed(Object(PhantomData))? {
-                Some(m) => items.push(m),
+                Some(m) => (self.each)(n, m),
                 None => break,
             }
+            n += 1;
         }
         self.item.set(None);
-        if items.is_empty() {
+        if n == 0 {
             return Err(de::Error::custom("empty batch"));
         }
-        Ok(items)
+        Ok(n)
     }
 }
 

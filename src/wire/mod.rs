@@ -108,6 +108,41 @@ mod tests {
         }
     }
 
+    /// Straight into domain values: what is appended is all or nothing, and a refusal of the conversion
+    /// ranks after every fault of the text and names its item only in a batch.
+    #[test]
+    fn decoding_into_domain_values() {
+        let gyro = |g: GyroMsg| g.to_domain(&lim());
+        let mut out = vec![];
+        let two = br#"[{"t": 1, "omega": [0, 0, 0]}, {"t": 2, "omega": [0, 0, 0.5]}]"#;
+        assert_eq!(decode_batch_into(two, &lim(), gyro, &mut out), Ok(2));
+        assert_eq!(
+            decode_batch_into(br#"{"t": 3, "omega": [0, 0, 0]}"#, &lim(), gyro, &mut out),
+            Ok(1)
+        );
+        assert_eq!(
+            out.iter().map(|g| g.t_s).collect::<Vec<_>>(),
+            [1.0, 2.0, 3.0]
+        );
+        let fast = br#"[{"t": 4, "omega": [0, 0, 0]}, {"t": 5, "omega": [0, 0, 1e3]}]"#;
+        let r = decode_batch_into(fast, &lim(), gyro, &mut out).unwrap_err();
+        assert_eq!(r.code, RejectCode::OutOfRange);
+        assert!(r.message.starts_with("batch item 1: "), "{}", r.message);
+        let r = decode_batch_into(
+            br#"[{"t": 5, "omega": [0, 0, 1e3]}]"#,
+            &lim(),
+            gyro,
+            &mut out,
+        )
+        .unwrap_err();
+        assert!(r.message.starts_with("|omega|"), "{}", r.message);
+        // A later item of the wrong shape outranks an earlier one the conversion refuses.
+        let both = br#"[{"t": 4, "omega": [0, 0, 1e3]}, {"t": 5, "omega": [0, 0]}]"#;
+        let r = decode_batch_into(both, &lim(), gyro, &mut out).unwrap_err();
+        assert_eq!(r.code, RejectCode::BadRequest, "{}", r.message);
+        assert_eq!(out.len(), 3, "a refused payload appends nothing");
+    }
+
     #[test]
     fn one_or_many() {
         let one: Vec<GyroMsg> =

@@ -312,13 +312,24 @@ impl From<&ImuDiagnostics> for ImuDiagnosticsMsg {
 impl From<&Published> for EstimateMsg {
     /// The estimate and the vehicle's diagnostics (`diagnostics.rejected` is the service's to fill).
     fn from(p: &Published) -> Self {
+        EstimateMsg::from(p.clone())
+    }
+}
+
+impl From<Published> for EstimateMsg {
+    /// As `From<&Published>`, taking the maps over instead of copying them (every estimate).
+    fn from(p: Published) -> Self {
         let mut msg =
             EstimateMsg::from_domain(&p.vehicle, &p.spec, &p.estimate, p.seq, p.particles);
         let d = &mut msg.diagnostics;
-        d.gate = p.gate.iter().map(|(k, c)| (k.clone(), c.into())).collect();
+        d.gate = p
+            .gate
+            .into_iter()
+            .map(|(k, c)| (k, GateCountsMsg::from(&c)))
+            .collect();
         d.consecutive_gated = p.consecutive_gated;
         d.rollbacks = p.rollbacks;
-        d.reinits = p.reinits.clone();
+        d.reinits = p.reinits;
         d.held = p.held;
         d.replayed = p.replayed;
         d.late_fused = p.late_fused;

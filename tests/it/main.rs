@@ -12,6 +12,7 @@ mod checkpoint_golden;
 mod conventions;
 mod fleet;
 mod imu_models;
+mod load;
 mod mekf;
 mod montecarlo_cli;
 mod parsers_prop;

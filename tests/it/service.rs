@@ -416,6 +416,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         vehicle_prefix: "lg".into(),
         drain_s: 5.0,
         imu_batch: 0,
+        covering: false,
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();
@@ -438,9 +439,35 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
     };
     let r = run(&h.client, &keys, &imu, "service").await.unwrap();
     assert_eq!(
+        (r.sent, r.estimates, r.messages, r.lost, r.rejected),
+        (600, 600, 600, 0, 0),
+        "{r:?}"
+    );
+    // Through the echo each put of ten samples comes back as one message.
+    let e = run(&h.client, &echo_keys, &imu, "echo").await.unwrap();
+    assert_eq!(
+        (e.sent, e.estimates, e.messages, e.lost),
+        (600, 600, 60, 0),
+        "{e:?}"
+    );
+    h.stop().await;
+    // A service that caps IMU estimates at 20 per second (one per put of ten samples at 200 Hz):
+    // each estimate answers the samples up to its time, and nothing is lost.
+    let h = Harness::start(service_config(
+        r#"{ service: { filter: { kind: "mekf" }, imu: { max_estimate_rate_hz: 20 } } }"#,
+    ))
+    .await;
+    let capped = LoadOptions {
+        covering: true,
+        vehicle_prefix: "lgc".into(),
+        ..imu
+    };
+    let r = run(&h.client, &keys, &capped, "service").await.unwrap();
+    assert_eq!(
         (r.sent, r.estimates, r.lost, r.rejected),
         (600, 600, 0, 0),
         "{r:?}"
     );
+    assert!((50..=70).contains(&r.messages), "{r:?}");
     h.stop().await;
 }

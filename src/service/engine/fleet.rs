@@ -168,14 +168,12 @@ impl Engine {
             .unwrap_or_else(|e| e.into_inner())
             .remove(id);
         // (Inputs that do not decode were refused by the owner of the time.)
-        let measurements: Vec<Measurement> = inputs
-            .iter()
-            .filter_map(|(_, inbound)| {
-                let (_, leaf) = self.keys.split(&inbound.key)?;
-                self.decode(leaf, &inbound.payload)?.ok()
-            })
-            .flatten()
-            .collect();
+        let mut measurements: Vec<Measurement> = Vec::new();
+        for (_, inbound) in &inputs {
+            if let Some((_, leaf)) = self.keys.split(&inbound.key) {
+                let _ = self.decode(leaf, &inbound.payload, &mut measurements);
+            }
+        }
         let base = self.config.filter_for(id);
         let (state, replay, snapshot) = match &cached {
             Some(e) => {

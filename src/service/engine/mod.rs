@@ -26,7 +26,7 @@ use super::persist::{self, SavedCounters};
 use super::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
 use crate::sensors::Measurement;
 use crate::wire::{
-    decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
+    decode_batch_into, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, RejectCode, Rejection, ResetMsg,
     ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
 };
@@ -318,15 +318,18 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || loop {
-                    crossbeam_channel::select! {
-                        recv(ingest_rx) -> m => match m {
-                            Ok(Some(inbound)) => engine.dispatch(inbound),
-                            _ => break,
-                        },
-                        recv(members_rx) -> m => {
-                            if let Ok(members) = m {
-                                engine.set_members(members);
+                .spawn(move || {
+                    let mut decoded = Vec::new();
+                    loop {
+                        crossbeam_channel::select! {
+                            recv(ingest_rx) -> m => match m {
+                                Ok(Some(inbound)) => engine.dispatch_with(inbound, &mut decoded),
+                                _ => break,
+                            },
+                            recv(members_rx) -> m => {
+                                if let Ok(members) = m {
+                                    engine.set_members(members);
+                                }
                             }
                         }
                     }
@@ -556,6 +559,13 @@ impl Engine {
 
     /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
     pub fn dispatch(&self, inbound: Inbound) {
+        self.dispatch_with(inbound, &mut Vec::new())
+    }
+
+    /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
+    /// capacity is kept from one input to the next).
+    fn dispatch_with(&self, inbound: Inbound, decoded: &mut Vec<Measurement>) {
+        decoded.clear();
         let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
             return;
         };
@@ -566,28 +576,32 @@ impl Engine {
             let vehicle = vehicle.to_string();
             return self.keep_standby(&vehicle, inbound);
         }
-        let decoded = match self.decode(leaf, &inbound.payload) {
+        let result = match self.decode(leaf, &inbound.payload, decoded) {
             Some(d) => d,
             None => return,
         };
-        let n = decoded.as_ref().map(|d| d.len() as u64).unwrap_or(1);
+        let n = *result.as_ref().unwrap_or(&1) as u64;
         self.counters.received.fetch_add(n, Ordering::Relaxed);
         if let Err(r) = validate_vehicle_id(vehicle) {
+            decoded.clear();
             return self.reject(vehicle, &inbound.key, &r);
         }
-        let measurements = match decoded {
-            Ok(m) => m,
-            Err(r) => return self.reject(vehicle, &inbound.key, &r),
-        };
+        if let Err(r) = result {
+            return self.reject(vehicle, &inbound.key, &r);
+        }
         let v = match self.get_or_create(vehicle) {
             Ok(v) => v,
-            Err(r) => return self.reject(vehicle, &inbound.key, &r),
+            Err(r) => {
+                decoded.clear();
+                return self.reject(vehicle, &inbound.key, &r);
+            }
         };
         {
             let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
-            if inbox.len() + measurements.len() > self.config.limits.queue_per_vehicle {
+            if inbox.len() + decoded.len() > self.config.limits.queue_per_vehicle {
                 let waiting = inbox.len();
                 drop(inbox);
+                decoded.clear();
                 let r = Rejection::new(
                     RejectCode::QueueFull,
                     format!(
@@ -598,50 +612,41 @@ impl Engine {
                 return self.reject(vehicle, &inbound.key, &r);
             }
             let at = self.now_s();
-            inbox.extend(measurements.into_iter().map(|m| Input::Measurement(m, at)));
+            inbox.extend(decoded.drain(..).map(|m| Input::Measurement(m, at)));
             // (A refused payload is counted as one rejection, not as received samples.)
             v.received.fetch_add(n, Ordering::Relaxed);
         }
         self.schedule(&v);
     }
 
-    /// Decodes a gyro, vectors or IMU payload into measurements (`None` for other leaves).
-    fn decode(&self, leaf: Leaf, payload: &[u8]) -> Option<Result<Vec<Measurement>, Rejection>> {
+    /// Decodes a gyro, vectors or IMU payload straight into measurements appended to `out` (nothing
+    /// on a fault; `None` for other leaves), and how many.
+    fn decode(
+        &self,
+        leaf: Leaf,
+        payload: &[u8],
+        out: &mut Vec<Measurement>,
+    ) -> Option<Result<usize, Rejection>> {
         let limits = &self.config.limits.input;
         Some(match leaf {
-            Leaf::Gyro => decode_batch::<GyroMsg>(payload, limits).and_then(|items| {
-                items
-                    .iter()
-                    .enumerate()
-                    .map(|(i, g)| {
-                        g.to_domain(limits)
-                            .map(Measurement::Gyro)
-                            .map_err(|e| at(i, items.len(), e))
-                    })
-                    .collect()
-            }),
-            Leaf::Imu => decode_batch::<ImuMsg>(payload, limits).and_then(|items| {
-                items
-                    .iter()
-                    .enumerate()
-                    .map(|(i, s)| {
-                        s.to_domain(limits)
-                            .map(Measurement::Imu)
-                            .map_err(|e| at(i, items.len(), e))
-                    })
-                    .collect()
-            }),
-            Leaf::Vectors => decode_batch::<VectorsMsg>(payload, limits).and_then(|items| {
-                items
-                    .iter()
-                    .enumerate()
-                    .map(|(i, v)| {
-                        v.to_domain(limits)
-                            .map(Measurement::Vectors)
-                            .map_err(|e| at(i, items.len(), e))
-                    })
-                    .collect()
-            }),
+            Leaf::Gyro => decode_batch_into(
+                payload,
+                limits,
+                |g: GyroMsg| g.to_domain(limits).map(Measurement::Gyro),
+                out,
+            ),
+            Leaf::Imu => decode_batch_into(
+                payload,
+                limits,
+                |s: ImuMsg| s.to_domain(limits).map(Measurement::Imu),
+                out,
+            ),
+            Leaf::Vectors => decode_batch_into(
+                payload,
+                limits,
+                |v: VectorsMsg| v.to_domain(limits).map(Measurement::Vectors),
+                out,
+            ),
             _ => return None,
         })
     }
@@ -759,19 +764,9 @@ impl Engine {
                 Event::Estimate(p) => {
                     // What a subscriber sees must agree with P/@/vehicles at once.
                     refresh_info(v, state);
-                    self.publish_estimate(v, EstimateMsg::from(&p));
+                    self.publish_estimate(v, EstimateMsg::from(p));
                 }
             }
         }
-    }
-}
-
-/// Names the batch item in a rejection (as `decode_batch` does for shape errors); a single sample
-/// needs no index.
-fn at(index: usize, len: usize, r: Rejection) -> Rejection {
-    if len > 1 {
-        Rejection::new(r.code, format!("batch item {index}: {}", r.message))
-    } else {
-        r
     }
 }

@@ -27,7 +27,11 @@ impl VehicleState {
             } else {
                 OTHER
             };
-        self.gate.entry(key.to_string()).or_default()
+        // (A name is copied only the first time it is counted: this runs for every observation.)
+        if !self.gate.contains_key(key) {
+            self.gate.insert(key.to_string(), GateCounts::default());
+        }
+        self.gate.get_mut(key).expect("inserted above")
     }
 
     /// Applies the sensor models (`service.sensors.NAME.kind`, crate::sensors::imu) about `prior`:
