@@ -183,6 +183,9 @@ fn refresh_info(v: &Vehicle, state: &VehicleState) {
 
 /// Inputs a worker takes from one vehicle before giving other vehicles a turn.
 const TURN: usize = 256;
+/// ... and at most this long, s: a vehicle with a heavy filter (a particle filter of 10⁵ particles
+/// steps in milliseconds) and a backlog must not hold a worker for hundreds of its steps.
+const TURN_S: f64 = 0.005;
 
 /// The engine shared by the dispatcher, the workers and the query handlers.
 pub struct Engine {
@@ -677,7 +680,12 @@ impl Engine {
         events.clear();
         {
             let mut state = v.state.lock().unwrap_or_else(|e| e.into_inner());
+            let turn_ends = self.now_s() + TURN_S;
             for _ in 0..TURN {
+                let now = self.now_s();
+                if now > turn_ends {
+                    break;
+                }
                 let next = v
                     .inbox
                     .lock()
@@ -685,7 +693,6 @@ impl Engine {
                     .pop_front();
                 let Some(input) = next else { break };
                 v.dirty.store(true, Ordering::Release);
-                let now = self.now_s();
                 match input {
                     Input::Measurement(m) => {
                         let stream = super::vehicle::stream_of(&m);
