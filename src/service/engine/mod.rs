@@ -8,11 +8,12 @@
 //! filter and hands every output to the [`Sink`]. A vehicle is processed by one worker at a time, in
 //! arrival order; a slow vehicle occupies one worker and never blocks the others.
 //!
-//! Files: this one (the types, start and restore, housekeeping, the registry, the dispatcher and the
-//! workers), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
+//! Files: this one (the types, start and restore, housekeeping, the registry and the workers),
+//! `dispatch.rs` (the dispatcher: decoding and queueing), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
 //! row of `P/@/vehicles`), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the
 //! queryables).
 
+mod dispatch;
 mod fleet;
 mod output;
 mod queries;
@@ -311,22 +312,7 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || {
-                    let mut decoded = Vec::new();
-                    loop {
-                        crossbeam_channel::select! {
-                            recv(ingest_rx) -> m => match m {
-                                Ok(Some(inbound)) => engine.dispatch_with(inbound, &mut decoded),
-                                _ => break,
-                            },
-                            recv(members_rx) -> m => {
-                                if let Ok(members) = m {
-                                    engine.set_members(members);
-                                }
-                            }
-                        }
-                    }
-                })
+                .spawn(move || engine.dispatcher(ingest_rx, members_rx))
                 .expect("spawn the dispatcher thread")
         };
         let workers = (0..workers)
@@ -548,99 +534,6 @@ impl Engine {
         if let Ok(payload) = serde_json::to_vec(&msg) {
             (self.sink)(&to, payload);
         }
-    }
-
-    /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
-    pub fn dispatch(&self, inbound: Inbound) {
-        self.dispatch_with(inbound, &mut Vec::new())
-    }
-
-    /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
-    /// capacity is kept from one input to the next).
-    fn dispatch_with(&self, inbound: Inbound, decoded: &mut Vec<Measurement>) {
-        decoded.clear();
-        let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
-            return;
-        };
-        if leaf == Leaf::Estimate {
-            return self.remember_estimate(vehicle, &inbound.payload);
-        }
-        if !self.owns(vehicle) {
-            let vehicle = vehicle.to_string();
-            return self.keep_standby(&vehicle, inbound);
-        }
-        let result = match self.decode(leaf, &inbound.payload, decoded) {
-            Some(d) => d,
-            None => return,
-        };
-        let n = *result.as_ref().unwrap_or(&1) as u64;
-        self.counters.received.fetch_add(n, Ordering::Relaxed);
-        if let Err(r) = validate_vehicle_id(vehicle) {
-            decoded.clear();
-            return self.reject(vehicle, &inbound.key, &r);
-        }
-        if let Err(r) = result {
-            return self.reject(vehicle, &inbound.key, &r);
-        }
-        let v = match self.get_or_create(vehicle) {
-            Ok(v) => v,
-            Err(r) => {
-                decoded.clear();
-                return self.reject(vehicle, &inbound.key, &r);
-            }
-        };
-        {
-            let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
-            if inbox.len() + decoded.len() > self.config.limits.queue_per_vehicle {
-                let waiting = inbox.len();
-                drop(inbox);
-                decoded.clear();
-                let r = Rejection::new(
-                    RejectCode::QueueFull,
-                    format!(
-                        "vehicle {vehicle} has {} samples waiting (limit {}); these {n} are dropped",
-                        waiting, self.config.limits.queue_per_vehicle,
-                    ),
-                );
-                return self.reject(vehicle, &inbound.key, &r);
-            }
-            inbox.extend(decoded.drain(..).map(Input::Measurement));
-            // (A refused payload is counted as one rejection, not as received samples.)
-            v.received.fetch_add(n, Ordering::Relaxed);
-        }
-        self.schedule(&v);
-    }
-
-    /// Decodes a gyro, vectors or IMU payload straight into measurements appended to `out` (nothing
-    /// on a fault; `None` for other leaves), and how many.
-    fn decode(
-        &self,
-        leaf: Leaf,
-        payload: &[u8],
-        out: &mut Vec<Measurement>,
-    ) -> Option<Result<usize, Rejection>> {
-        let limits = &self.config.limits.input;
-        Some(match leaf {
-            Leaf::Gyro => decode_batch_into(
-                payload,
-                limits,
-                |g: GyroMsg| g.to_domain(limits).map(Measurement::Gyro),
-                out,
-            ),
-            Leaf::Imu => decode_batch_into(
-                payload,
-                limits,
-                |s: ImuMsg| s.to_domain(limits).map(Measurement::Imu),
-                out,
-            ),
-            Leaf::Vectors => decode_batch_into(
-                payload,
-                limits,
-                |v: VectorsMsg| v.to_domain(limits).map(Measurement::Vectors),
-                out,
-            ),
-            _ => return None,
-        })
     }
 
     fn schedule(&self, v: &Arc<Vehicle>) {
