@@ -188,3 +188,38 @@ fn the_estimate_rate_cap_is_applied_before_an_estimate_is_made() {
     // The seq counts the estimates published, with or without the cap.
     assert_eq!(capped.last().unwrap().seq, capped.len() as u64);
 }
+
+#[test]
+fn a_vehicle_with_a_heavy_filter_and_a_backlog_does_not_hold_the_worker() {
+    // One worker; a particle filter of 20 000 particles (a step of a millisecond or so) with 200
+    // vector sets waiting, then one set of an MEKF vehicle: its estimate comes after a few of the
+    // heavy steps (a worker's turn ends after 5 ms), not after all of them.
+    let (engine, threads, _out) = collecting_engine(service_config(
+        r#"{ service: { workers: 1, filter: { kind: "mekf" }, time: { reorder_window_s: 0 },
+             vehicles: { heavy: { kind: "qpf", particles: 20000 } } } }"#,
+    ));
+    let set = |vehicle: &str, t: f64| Inbound {
+        key: format!("attitude/{vehicle}/vectors"),
+        payload: serde_json::to_vec(&star_set(t, 2)).unwrap(),
+    };
+    for k in 0..200 {
+        engine.dispatch(set("heavy", k as f64));
+    }
+    engine.dispatch(set("light", 0.0));
+    wait_until(
+        "the light vehicle's estimate",
+        Duration::from_secs(60),
+        || engine.state_of("light").is_ok(),
+    )
+    .unwrap();
+    let heavy = engine.vehicle("heavy").unwrap().info().processed;
+    assert!(
+        heavy < 150,
+        "{heavy} heavy steps ran before the light vehicle's one"
+    );
+    wait_until("every heavy step", Duration::from_secs(120), || {
+        engine.vehicle("heavy").unwrap().info().processed == 200
+    })
+    .unwrap();
+    threads.shutdown();
+}

@@ -8,11 +8,12 @@
 //! filter and hands every output to the [`Sink`]. A vehicle is processed by one worker at a time, in
 //! arrival order; a slow vehicle occupies one worker and never blocks the others.
 //!
-//! Files: this one (the types, start and restore, housekeeping, the registry, the dispatcher and the
-//! workers), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
+//! Files: this one (the types, start and restore, housekeeping, the registry and the workers),
+//! `dispatch.rs` (the dispatcher: decoding and queueing), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
 //! row of `P/@/vehicles`), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the
 //! queryables).
 
+mod dispatch;
 mod fleet;
 mod output;
 mod queries;
@@ -193,6 +194,9 @@ fn refresh_info(v: &Vehicle, state: &VehicleState) {
 
 /// Inputs a worker takes from one vehicle before giving other vehicles a turn.
 const TURN: usize = 256;
+/// ... and at most this long, s: a vehicle with a heavy filter (a particle filter of 10⁵ particles
+/// steps in milliseconds) and a backlog must not hold a worker for hundreds of its steps.
+const TURN_S: f64 = 0.005;
 
 /// The engine shared by the dispatcher, the workers and the query handlers.
 pub struct Engine {
@@ -318,22 +322,7 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || {
-                    let mut decoded = Vec::new();
-                    loop {
-                        crossbeam_channel::select! {
-                            recv(ingest_rx) -> m => match m {
-                                Ok(Some(inbound)) => engine.dispatch_with(inbound, &mut decoded),
-                                _ => break,
-                            },
-                            recv(members_rx) -> m => {
-                                if let Ok(members) = m {
-                                    engine.set_members(members);
-                                }
-                            }
-                        }
-                    }
-                })
+                .spawn(move || engine.dispatcher(ingest_rx, members_rx))
                 .expect("spawn the dispatcher thread")
         };
         let workers = (0..workers)
@@ -557,100 +546,6 @@ impl Engine {
         }
     }
 
-    /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
-    pub fn dispatch(&self, inbound: Inbound) {
-        self.dispatch_with(inbound, &mut Vec::new())
-    }
-
-    /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
-    /// capacity is kept from one input to the next).
-    fn dispatch_with(&self, inbound: Inbound, decoded: &mut Vec<Measurement>) {
-        decoded.clear();
-        let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
-            return;
-        };
-        if leaf == Leaf::Estimate {
-            return self.remember_estimate(vehicle, &inbound.payload);
-        }
-        if !self.owns(vehicle) {
-            let vehicle = vehicle.to_string();
-            return self.keep_standby(&vehicle, inbound);
-        }
-        let result = match self.decode(leaf, &inbound.payload, decoded) {
-            Some(d) => d,
-            None => return,
-        };
-        let n = *result.as_ref().unwrap_or(&1) as u64;
-        self.counters.received.fetch_add(n, Ordering::Relaxed);
-        if let Err(r) = validate_vehicle_id(vehicle) {
-            decoded.clear();
-            return self.reject(vehicle, &inbound.key, &r);
-        }
-        if let Err(r) = result {
-            return self.reject(vehicle, &inbound.key, &r);
-        }
-        let v = match self.get_or_create(vehicle) {
-            Ok(v) => v,
-            Err(r) => {
-                decoded.clear();
-                return self.reject(vehicle, &inbound.key, &r);
-            }
-        };
-        {
-            let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
-            if inbox.len() + decoded.len() > self.config.limits.queue_per_vehicle {
-                let waiting = inbox.len();
-                drop(inbox);
-                decoded.clear();
-                let r = Rejection::new(
-                    RejectCode::QueueFull,
-                    format!(
-                        "vehicle {vehicle} has {} samples waiting (limit {}); these {n} are dropped",
-                        waiting, self.config.limits.queue_per_vehicle,
-                    ),
-                );
-                return self.reject(vehicle, &inbound.key, &r);
-            }
-            let at = self.now_s();
-            inbox.extend(decoded.drain(..).map(|m| Input::Measurement(m, at)));
-            // (A refused payload is counted as one rejection, not as received samples.)
-            v.received.fetch_add(n, Ordering::Relaxed);
-        }
-        self.schedule(&v);
-    }
-
-    /// Decodes a gyro, vectors or IMU payload straight into measurements appended to `out` (nothing
-    /// on a fault; `None` for other leaves), and how many.
-    fn decode(
-        &self,
-        leaf: Leaf,
-        payload: &[u8],
-        out: &mut Vec<Measurement>,
-    ) -> Option<Result<usize, Rejection>> {
-        let limits = &self.config.limits.input;
-        Some(match leaf {
-            Leaf::Gyro => decode_batch_into(
-                payload,
-                limits,
-                |g: GyroMsg| g.to_domain(limits).map(Measurement::Gyro),
-                out,
-            ),
-            Leaf::Imu => decode_batch_into(
-                payload,
-                limits,
-                |s: ImuMsg| s.to_domain(limits).map(Measurement::Imu),
-                out,
-            ),
-            Leaf::Vectors => decode_batch_into(
-                payload,
-                limits,
-                |v: VectorsMsg| v.to_domain(limits).map(Measurement::Vectors),
-                out,
-            ),
-            _ => return None,
-        })
-    }
-
     fn schedule(&self, v: &Arc<Vehicle>) {
         if !v.scheduled.swap(true, Ordering::AcqRel) {
             let _ = self.work_tx.send(Some(v.clone()));
@@ -688,7 +583,11 @@ impl Engine {
         events.clear();
         {
             let mut state = v.state.lock().unwrap_or_else(|e| e.into_inner());
+            let turn_ends = self.now_s() + TURN_S;
             for _ in 0..TURN {
+                if self.now_s() > turn_ends {
+                    break;
+                }
                 let next = v
                     .inbox
                     .lock()

@@ -1,0 +1,156 @@
+//! The dispatcher thread, the wire edge: inputs in arrival order, split by key, checked for fleet
+//! ownership, decoded straight into measurements and queued on their vehicle's inbox; the vehicles go
+//! to the worker pool once the inputs already waiting are queued too.
+
+use super::*;
+
+/// Inputs already waiting that the dispatcher queues before handing their vehicles to the workers.
+const DISPATCH_BATCH: usize = 64;
+
+impl Engine {
+    /// The dispatcher thread: the inputs in arrival order, and the fleet's membership changes between
+    /// them, until the ingest channel says stop.
+    pub(super) fn dispatcher(
+        &self,
+        ingest: crossbeam_channel::Receiver<Option<Inbound>>,
+        members: crossbeam_channel::Receiver<BTreeSet<String>>,
+    ) {
+        let (mut decoded, mut touched) = (Vec::new(), Vec::new());
+        loop {
+            crossbeam_channel::select! {
+                recv(ingest) -> m => {
+                    let Ok(Some(inbound)) = m else { return };
+                    // What else is already waiting is queued too before the vehicles go to the
+                    // workers: in a burst a vehicle's inputs then take one worker turn, not one each.
+                    touched.extend(self.dispatch_with(inbound, &mut decoded));
+                    let mut stop = false;
+                    for _ in 1..DISPATCH_BATCH {
+                        match ingest.try_recv() {
+                            Ok(Some(inbound)) => {
+                                touched.extend(self.dispatch_with(inbound, &mut decoded))
+                            }
+                            Ok(None) => {
+                                stop = true;
+                                break;
+                            }
+                            Err(_) => break,
+                        }
+                    }
+                    for v in touched.drain(..) {
+                        self.schedule(&v);
+                    }
+                    if stop {
+                        return;
+                    }
+                }
+                recv(members) -> m => {
+                    if let Ok(members) = m {
+                        self.set_members(members);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
+    pub fn dispatch(&self, inbound: Inbound) {
+        if let Some(v) = self.dispatch_with(inbound, &mut Vec::new()) {
+            self.schedule(&v);
+        }
+    }
+
+    /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
+    /// capacity is kept from one input to the next), returning the vehicle to schedule instead of
+    /// scheduling it.
+    fn dispatch_with(
+        &self,
+        inbound: Inbound,
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
+        decoded.clear();
+        let (vehicle, leaf) = self.keys.split(&inbound.key)?;
+        if leaf == Leaf::Estimate {
+            self.remember_estimate(vehicle, &inbound.payload);
+            return None;
+        }
+        if !self.owns(vehicle) {
+            let vehicle = vehicle.to_string();
+            self.keep_standby(&vehicle, inbound);
+            return None;
+        }
+        let result = self.decode(leaf, &inbound.payload, decoded)?;
+        let n = *result.as_ref().unwrap_or(&1) as u64;
+        self.counters.received.fetch_add(n, Ordering::Relaxed);
+        let refused = |r: &Rejection| {
+            self.reject(vehicle, &inbound.key, r);
+            None
+        };
+        if let Err(r) = validate_vehicle_id(vehicle) {
+            decoded.clear();
+            return refused(&r);
+        }
+        if let Err(r) = result {
+            return refused(&r);
+        }
+        let v = match self.get_or_create(vehicle) {
+            Ok(v) => v,
+            Err(r) => {
+                decoded.clear();
+                return refused(&r);
+            }
+        };
+        {
+            let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
+            if inbox.len() + decoded.len() > self.config.limits.queue_per_vehicle {
+                let waiting = inbox.len();
+                drop(inbox);
+                decoded.clear();
+                let r = Rejection::new(
+                    RejectCode::QueueFull,
+                    format!(
+                        "vehicle {vehicle} has {} samples waiting (limit {}); these {n} are dropped",
+                        waiting, self.config.limits.queue_per_vehicle,
+                    ),
+                );
+                return refused(&r);
+            }
+            let at = self.now_s();
+            inbox.extend(decoded.drain(..).map(|m| Input::Measurement(m, at)));
+            // (A refused payload is counted as one rejection, not as received samples.)
+            v.received.fetch_add(n, Ordering::Relaxed);
+        }
+        Some(v)
+    }
+
+    /// Decodes a gyro, vectors or IMU payload straight into measurements appended to `out` (nothing
+    /// on a fault; `None` for other leaves), and how many.
+    pub(super) fn decode(
+        &self,
+        leaf: Leaf,
+        payload: &[u8],
+        out: &mut Vec<Measurement>,
+    ) -> Option<Result<usize, Rejection>> {
+        let limits = &self.config.limits.input;
+        Some(match leaf {
+            Leaf::Gyro => decode_batch_into(
+                payload,
+                limits,
+                |g: GyroMsg| g.to_domain(limits).map(Measurement::Gyro),
+                out,
+            ),
+            Leaf::Imu => decode_batch_into(
+                payload,
+                limits,
+                |s: ImuMsg| s.to_domain(limits).map(Measurement::Imu),
+                out,
+            ),
+            Leaf::Vectors => decode_batch_into(
+                payload,
+                limits,
+                |v: VectorsMsg| v.to_domain(limits).map(Measurement::Vectors),
+                out,
+            ),
+            _ => return None,
+        })
+    }
+}
