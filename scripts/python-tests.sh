@@ -25,6 +25,10 @@ PACKAGES=(
   "vqf==2.1.2"
   "h5py==3.16.0"
   "ahrs==0.3.1"
+  # The independent sparse-grid rules of tests/python/test_sghq_rule.py (numpoly is its polynomial
+  # library, a source package that builds in seconds).
+  "chaospy==4.3.21"
+  "numpoly==1.3.9"
 )
 
 if [[ ! -x "$PY" ]]; then

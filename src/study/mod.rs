@@ -54,12 +54,15 @@ pub struct RunTrace {
 pub struct FilterSummary {
     /// `mekf`, `usque:average`, … (the `--filters` spelling).
     pub filter: String,
-    /// `mekf`, `usque` or `qpf`.
+    /// `mekf`, `usque`, `qpf` or `sghqf`.
     pub kind: String,
     /// `propagated`, `average`, or null for the MEKF.
     pub fiducial: Option<String>,
     /// Particle count (QPF only).
     pub particles: Option<usize>,
+    /// Sparse-grid level (SGHQF only; absent from older summaries).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<u8>,
     pub runs: usize,
     pub converged_runs: usize,
     /// Median over converged runs, s (null when none converged).
@@ -102,6 +105,7 @@ fn nan_or_numbers<'de, D: serde::Deserializer<'de>, const N: usize>(
 pub struct FilterResult {
     pub spec: FilterSpec,
     pub particles: Option<usize>,
+    pub level: Option<u8>,
     pub runs: Vec<RunTrace>,
     pub summary: FilterSummary,
 }

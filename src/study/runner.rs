@@ -28,6 +28,8 @@ pub struct StudyConfig {
     pub seed: u64,
     /// Particle count of the QPF.
     pub particles: usize,
+    /// Sparse-grid level of the SGHQF.
+    pub level: u8,
     /// Worker threads (≥ 1).
     pub jobs: usize,
 }
@@ -67,10 +69,12 @@ pub fn run_study(config: &StudyConfig, on_run_done: &(dyn Fn() + Sync)) -> Study
                 .map(|r| r.get(fi).cloned().unwrap_or_default())
                 .collect();
             let particles = (spec.kind == FilterKind::Qpf).then_some(config.particles);
-            let summary = summarize(spec, particles, &traces);
+            let level = (spec.kind == FilterKind::Sghqf).then_some(config.level);
+            let summary = summarize(spec, particles, level, &traces);
             FilterResult {
                 spec: *spec,
                 particles,
+                level,
                 runs: traces,
                 summary,
             }
@@ -160,6 +164,7 @@ fn run_filter(
     let mut trace = RunTrace::default();
     let mut filter_config = FilterConfig::new(*spec, config.scenario.gyro);
     filter_config.particles = config.particles;
+    filter_config.level = config.level;
     let init = &sim.initial;
     let initial = InitialState {
         t_s: Some(sim.truth[0].t_s),
@@ -256,7 +261,12 @@ pub fn anees_interval(n: usize) -> [f64; 2] {
     [bound(0.025), bound(0.975)]
 }
 
-fn summarize(spec: &FilterSpec, particles: Option<usize>, runs: &[RunTrace]) -> FilterSummary {
+fn summarize(
+    spec: &FilterSpec,
+    particles: Option<usize>,
+    level: Option<u8>,
+    runs: &[RunTrace],
+) -> FilterSummary {
     let converged: Vec<&RunTrace> = runs.iter().filter(|r| r.converged).collect();
     let pool: Vec<&RunTrace> = if converged.is_empty() {
         runs.iter().filter(|r| r.window_samples > 0).collect()
@@ -298,6 +308,7 @@ fn summarize(spec: &FilterSpec, particles: Option<usize>, runs: &[RunTrace]) -> 
         kind: spec.kind.as_str().to_string(),
         fiducial: spec.fiducial.map(|f| f.as_str().to_string()),
         particles,
+        level,
         runs: runs.len(),
         converged_runs: converged.len(),
         convergence_time_s: median,

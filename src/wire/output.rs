@@ -66,6 +66,9 @@ pub struct DiagnosticsMsg {
     pub ess: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
+    /// The sparse-grid level of an SGHQF.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<u8>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub concentration: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -315,6 +318,7 @@ impl From<&Published> for EstimateMsg {
         d.reinits = p.reinits.clone();
         d.held = p.held;
         d.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
+        d.level = p.level;
         msg
     }
 }

@@ -20,6 +20,7 @@ mod proto;
 mod qpf;
 mod robustness;
 mod service;
+mod sghqf;
 mod soak_cli;
 mod tidy;
 mod usque;

@@ -248,7 +248,7 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
 fn healthy(e: &Estimate, kind: FilterKind) -> bool {
     let pd = match kind {
         FilterKind::Qpf => is_spd(&e.covariance),
-        FilterKind::Mekf | FilterKind::Usque => plausibly_spd(&e.covariance),
+        FilterKind::Mekf | FilterKind::Usque | FilterKind::Sghqf => plausibly_spd(&e.covariance),
     };
     e.q.is_finite()
         && (e.q.norm() - 1.0).abs() < 1e-6
@@ -296,6 +296,11 @@ impl VehicleState {
         (self.config.filter.spec.kind == FilterKind::Qpf).then_some(self.config.filter.particles)
     }
 
+    /// The sparse-grid level of an SGHQF.
+    pub fn level(&self) -> Option<u8> {
+        (self.config.filter.spec.kind == FilterKind::Sghqf).then_some(self.config.filter.level)
+    }
+
     pub fn is_tracking(&self) -> bool {
         matches!(self.slot, Slot::Tracking(_))
     }
@@ -335,6 +340,7 @@ impl VehicleState {
             estimate,
             spec: self.spec(),
             particles: self.particles(),
+            level: self.level(),
             seq: self.seq,
             gate: self.gate.clone(),
             consecutive_gated: self.consecutive_gated,
