@@ -55,6 +55,10 @@ struct StudyArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     jobs: Option<usize>,
+    /// Skip an input the filter refuses (and count it), as the service's vehicle rolls it back,
+    /// instead of ending that run as failed.
+    #[arg(long)]
+    skip_refused: bool,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -86,6 +90,7 @@ fn study_config(
         seed: args.seed,
         particles,
         level: crate::filters::sghqf::DEFAULT_LEVEL,
+        skip_refused: args.skip_refused,
         jobs,
     })
 }

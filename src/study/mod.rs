@@ -47,6 +47,8 @@ pub struct RunTrace {
     pub wall_s: f64,
     /// Set when the filter returned an error (the run then counts as not converged).
     pub failure: Option<String>,
+    /// Inputs the filter refused and the run skipped (`StudyConfig::skip_refused`).
+    pub refused: usize,
 }
 
 /// The summary row of one filter, the content of `summary.json`.
@@ -83,6 +85,9 @@ pub struct FilterSummary {
     pub us_per_step: f64,
     /// Runs in which the filter reported an error.
     pub failed_runs: usize,
+    /// Inputs refused and skipped over all runs (with `--skip-refused`; absent from older summaries).
+    #[serde(default)]
+    pub refused_inputs: usize,
 }
 
 fn nan_or_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {

@@ -30,6 +30,9 @@ pub struct StudyConfig {
     pub particles: usize,
     /// Sparse-grid level of the SGHQF.
     pub level: u8,
+    /// A refused input is skipped and counted (as the service's vehicle rolls it back) instead of
+    /// ending the run as failed.
+    pub skip_refused: bool,
     /// Worker threads (≥ 1).
     pub jobs: usize,
 }
@@ -197,8 +200,13 @@ fn run_filter(
         let result = filter.process(m);
         wall += start.elapsed().as_secs_f64();
         if let Err(e) = result {
-            trace.failure = Some(format!("t = {} s: {e}", m.t_s()));
-            break;
+            if config.skip_refused {
+                // The filter is as before the input (propagated to its time): go on.
+                trace.refused += 1;
+            } else {
+                trace.failure = Some(format!("t = {} s: {e}", m.t_s()));
+                break;
+            }
         }
         let Measurement::Vectors(_) = m else { continue };
         let t = m.t_s();
@@ -323,6 +331,7 @@ fn summarize(
             f64::NAN
         },
         failed_runs: runs.iter().filter(|r| r.failure.is_some()).count(),
+        refused_inputs: runs.iter().map(|r| r.refused).sum(),
     }
 }
 

@@ -333,6 +333,9 @@ fn markdown(study: &StudyResult, unit: AngleUnit, plots: &[PlotOutcome]) -> Stri
             if s.failed_runs > 0 {
                 let _ = write!(converged, " ({} failed)", s.failed_runs);
             }
+            if s.refused_inputs > 0 {
+                let _ = write!(converged, " ({} inputs refused)", s.refused_inputs);
+            }
             let convergence = s.convergence_time_s.map_or("—".to_string(), num);
             let [lo, hi] = s.anees_interval;
             let outside = s.anees.is_finite()
@@ -440,6 +443,7 @@ mod tests {
             anees_interval: [2.26, 3.83],
             us_per_step: 123.4,
             failed_runs: 0,
+            refused_inputs: 0,
         }
     }
 
