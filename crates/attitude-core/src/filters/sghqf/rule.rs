@@ -177,7 +177,7 @@ pub fn smolyak(dim: usize, level: usize, growth: Growth) -> Result<Rule, RuleErr
         if total >= level.max(dim) && total < level + dim {
             let q = total - dim;
             let k = level - 1 - q;
-            let coeff = if k % 2 == 0 { 1.0 } else { -1.0 } * binomial(dim - 1, k);
+            let coeff = if k.is_multiple_of(2) { 1.0 } else { -1.0 } * binomial(dim - 1, k);
             add_tensor(&univariate, &index, coeff, &key_of, &mut merged);
         }
         // Next index vector in [1, level]^dim (odometer), skipping sums that cannot qualify.
