@@ -28,6 +28,10 @@ PACKAGES=(
   "foxglove-sdk==0.30.3"
   "websockets==17.4"
   "protobuf==7.36.2"
+  # The independent sparse-grid rules of tests/python/test_sghq_rule.py (numpoly is its polynomial
+  # library, a source package that builds in seconds).
+  "chaospy==4.3.21"
+  "numpoly==1.3.9"
 )
 
 if [[ ! -x "$PY" ]]; then

@@ -3,14 +3,15 @@
 
 use anyhow::Result;
 use attitude_service::cli::runtime::{block_on, block_on_until_signal};
-use attitude_service::cli::{bench, fleet, imu_study, load, scenario, serve, study};
+use attitude_service::cli::{bench, fleet, imu_study, load, quadrature, scenario, serve, study};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
     name = "attitude-service",
     version,
-    about = "Networked multi-vehicle attitude estimation (MEKF, USQUE, quaternion particle filter)"
+    about = "Networked multi-vehicle attitude estimation (MEKF, USQUE, quaternion particle filter, \
+             sparse-grid quadrature filter)"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -27,6 +28,9 @@ enum Command {
     Sweep(study::SweepArgs),
     /// Lists the standard scenarios and every parameter they use.
     Scenarios,
+    /// Prints a sparse-grid Gauss–Hermite rule of the SGHQF (points and weights for a standard
+    /// normal) as JSON, for a check against an independent implementation.
+    Quadrature(quadrature::QuadratureArgs),
     /// The network service: subscribes to P/*/gyro and P/*/vectors, keeps one filter per vehicle,
     /// publishes P/V/estimate and answers P/V/attitude, covariance, state, reset, P/@/vehicles and
     /// P/@/health. Stops cleanly on SIGINT or SIGTERM. Logs go to stderr; set RUST_LOG=info for more.
@@ -66,6 +70,7 @@ fn main() -> Result<()> {
         Command::Montecarlo(args) => study::montecarlo(args),
         Command::Sweep(args) => study::sweep(args),
         Command::Scenarios => scenario::list_scenarios(),
+        Command::Quadrature(args) => quadrature::quadrature(args),
         Command::Serve(args) => block_on_until_signal(|stop| serve::serve(args, stop)),
         Command::Simulate(args) => block_on_until_signal(|stop| fleet::simulate(args, stop)),
         Command::Demo(args) => block_on_until_signal(|stop| fleet::demo(args, stop)),

@@ -34,6 +34,9 @@ struct FleetArgs {
     /// Particles of the particle-filter vehicles (default: the service's).
     #[arg(long)]
     particles: Option<usize>,
+    /// Sparse-grid level (2..=4) of the SGHQF vehicles (default: the service's).
+    #[arg(long, value_parser = clap::value_parser!(u8).range(2..=4))]
+    level: Option<u8>,
     /// Simulated seconds per wall-clock second; 0 publishes as fast as possible. Default 1 (`demo`: 480).
     #[arg(long)]
     speed: Option<f64>,
@@ -95,6 +98,7 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
         vehicle_prefix: fleet.vehicle_prefix.clone(),
         filters: fleet.filters.clone(),
         particles: fleet.particles,
+        level: fleet.level,
         speed,
         seed: fleet.seed,
         reset: !fleet.no_reset,

@@ -11,6 +11,7 @@
 //! * `bench`: `bench` and `imu-bench`;
 //! * `imu_study`: `imu-study` (and its tuning);
 //! * `load`: `loadgen` and `soak`;
+//! * `quadrature`: `quadrature` (the SGHQF's sparse-grid rule as JSON, for an independent check);
 //! * `runtime`: the async runtime, the logging and the shutdown token (one per process, cancelled by
 //!   SIGINT or SIGTERM); `config`: the configuration file and the zenoh session configurations.
 //!
@@ -21,6 +22,7 @@ pub mod config;
 pub mod fleet;
 pub mod imu_study;
 pub mod load;
+pub mod quadrature;
 pub mod runtime;
 pub mod scenario;
 pub mod serve;

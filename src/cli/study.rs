@@ -14,12 +14,17 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct MontecarloArgs {
-    /// Comma-separated filters: mekf, usque:propagated, usque:average, qpf:propagated, qpf:average.
+    /// Comma-separated filters: mekf, usque:propagated, usque:average, qpf:propagated, qpf:average,
+    /// sghqf:propagated, sghqf:average.
     #[arg(long, value_delimiter = ',', default_value = "mekf")]
     filters: Vec<FilterSpec>,
     /// Particles of the quaternion particle filter.
     #[arg(long, default_value_t = 1000)]
     particles: usize,
+    /// Sparse-grid level of the SGHQF (2..=4).
+    #[arg(long, default_value_t = crate::filters::sghqf::DEFAULT_LEVEL,
+          value_parser = clap::value_parser!(u8).range(2..=4))]
+    level: u8,
     #[command(flatten)]
     study: StudyArgs,
 }
@@ -50,6 +55,10 @@ struct StudyArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     jobs: Option<usize>,
+    /// Skip an input the filter refuses (and count it), as the service's vehicle rolls it back,
+    /// instead of ending that run as failed.
+    #[arg(long)]
+    skip_refused: bool,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -80,6 +89,8 @@ fn study_config(
         runs: args.runs,
         seed: args.seed,
         particles,
+        level: crate::filters::sghqf::DEFAULT_LEVEL,
+        skip_refused: args.skip_refused,
         jobs,
     })
 }
@@ -100,7 +111,8 @@ fn progress(total: usize, message: String) -> ProgressBar {
 
 /// `montecarlo`: the study, its report in `--out`, the markdown printed.
 pub fn montecarlo(args: MontecarloArgs) -> Result<()> {
-    let config = study_config(&args.study, args.filters.clone(), args.particles)?;
+    let mut config = study_config(&args.study, args.filters.clone(), args.particles)?;
+    config.level = args.level;
     let bar = progress(config.runs, config.scenario.name.to_string());
     let study = run_study(&config, &|| bar.inc(1));
     bar.finish_and_clear();

@@ -47,6 +47,8 @@ pub struct RunTrace {
     pub wall_s: f64,
     /// Set when the filter returned an error (the run then counts as not converged).
     pub failure: Option<String>,
+    /// Inputs the filter refused and the run skipped (`StudyConfig::skip_refused`).
+    pub refused: usize,
 }
 
 /// The summary row of one filter, the content of `summary.json`.
@@ -54,12 +56,15 @@ pub struct RunTrace {
 pub struct FilterSummary {
     /// `mekf`, `usque:average`, … (the `--filters` spelling).
     pub filter: String,
-    /// `mekf`, `usque` or `qpf`.
+    /// `mekf`, `usque`, `qpf` or `sghqf`.
     pub kind: String,
     /// `propagated`, `average`, or null for the MEKF.
     pub fiducial: Option<String>,
     /// Particle count (QPF only).
     pub particles: Option<usize>,
+    /// Sparse-grid level (SGHQF only; absent from older summaries).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<u8>,
     pub runs: usize,
     pub converged_runs: usize,
     /// Median over converged runs, s (null when none converged).
@@ -80,6 +85,9 @@ pub struct FilterSummary {
     pub us_per_step: f64,
     /// Runs in which the filter reported an error.
     pub failed_runs: usize,
+    /// Inputs refused and skipped over all runs (with `--skip-refused`; absent from older summaries).
+    #[serde(default)]
+    pub refused_inputs: usize,
 }
 
 fn nan_or_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
@@ -102,6 +110,7 @@ fn nan_or_numbers<'de, D: serde::Deserializer<'de>, const N: usize>(
 pub struct FilterResult {
     pub spec: FilterSpec,
     pub particles: Option<usize>,
+    pub level: Option<u8>,
     pub runs: Vec<RunTrace>,
     pub summary: FilterSummary,
 }

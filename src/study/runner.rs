@@ -28,6 +28,11 @@ pub struct StudyConfig {
     pub seed: u64,
     /// Particle count of the QPF.
     pub particles: usize,
+    /// Sparse-grid level of the SGHQF.
+    pub level: u8,
+    /// A refused input is skipped and counted (as the service's vehicle rolls it back) instead of
+    /// ending the run as failed.
+    pub skip_refused: bool,
     /// Worker threads (≥ 1).
     pub jobs: usize,
 }
@@ -67,10 +72,12 @@ pub fn run_study(config: &StudyConfig, on_run_done: &(dyn Fn() + Sync)) -> Study
                 .map(|r| r.get(fi).cloned().unwrap_or_default())
                 .collect();
             let particles = (spec.kind == FilterKind::Qpf).then_some(config.particles);
-            let summary = summarize(spec, particles, &traces);
+            let level = (spec.kind == FilterKind::Sghqf).then_some(config.level);
+            let summary = summarize(spec, particles, level, &traces);
             FilterResult {
                 spec: *spec,
                 particles,
+                level,
                 runs: traces,
                 summary,
             }
@@ -160,6 +167,7 @@ fn run_filter(
     let mut trace = RunTrace::default();
     let mut filter_config = FilterConfig::new(*spec, config.scenario.gyro);
     filter_config.particles = config.particles;
+    filter_config.level = config.level;
     let init = &sim.initial;
     let initial = InitialState {
         t_s: Some(sim.truth[0].t_s),
@@ -192,8 +200,13 @@ fn run_filter(
         let result = filter.process(m);
         wall += start.elapsed().as_secs_f64();
         if let Err(e) = result {
-            trace.failure = Some(format!("t = {} s: {e}", m.t_s()));
-            break;
+            if config.skip_refused {
+                // The filter is as before the input (propagated to its time): go on.
+                trace.refused += 1;
+            } else {
+                trace.failure = Some(format!("t = {} s: {e}", m.t_s()));
+                break;
+            }
         }
         let Measurement::Vectors(_) = m else { continue };
         let t = m.t_s();
@@ -256,7 +269,12 @@ pub fn anees_interval(n: usize) -> [f64; 2] {
     [bound(0.025), bound(0.975)]
 }
 
-fn summarize(spec: &FilterSpec, particles: Option<usize>, runs: &[RunTrace]) -> FilterSummary {
+fn summarize(
+    spec: &FilterSpec,
+    particles: Option<usize>,
+    level: Option<u8>,
+    runs: &[RunTrace],
+) -> FilterSummary {
     let converged: Vec<&RunTrace> = runs.iter().filter(|r| r.converged).collect();
     let pool: Vec<&RunTrace> = if converged.is_empty() {
         runs.iter().filter(|r| r.window_samples > 0).collect()
@@ -298,6 +316,7 @@ fn summarize(spec: &FilterSpec, particles: Option<usize>, runs: &[RunTrace]) -> 
         kind: spec.kind.as_str().to_string(),
         fiducial: spec.fiducial.map(|f| f.as_str().to_string()),
         particles,
+        level,
         runs: runs.len(),
         converged_runs: converged.len(),
         convergence_time_s: median,
@@ -312,6 +331,7 @@ fn summarize(spec: &FilterSpec, particles: Option<usize>, runs: &[RunTrace]) -> 
             f64::NAN
         },
         failed_runs: runs.iter().filter(|r| r.failure.is_some()).count(),
+        refused_inputs: runs.iter().map(|r| r.refused).sum(),
     }
 }
 

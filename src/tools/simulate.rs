@@ -38,6 +38,8 @@ pub struct SimulateOptions {
     /// Filters assigned round-robin by a reset before streaming; empty keeps the service's default.
     pub filters: Vec<FilterSpec>,
     pub particles: Option<usize>,
+    /// Sparse-grid level of the SGHQF vehicles.
+    pub level: Option<u8>,
     /// Simulated seconds per wall-clock second; 0 publishes as fast as possible.
     pub speed: f64,
     pub seed: u64,
@@ -82,6 +84,10 @@ pub fn reset_request(options: &SimulateOptions, index: usize, run: &SimulatedRun
         particles: options
             .particles
             .filter(|_| spec.is_none_or(|s| s.kind == crate::filters::FilterKind::Qpf)),
+        level: options
+            .level
+            .filter(|_| spec.is_none_or(|s| s.kind == crate::filters::FilterKind::Sghqf))
+            .map(u64::from),
         // A uniformly random initial attitude is not known: the service initialises from vectors.
         q: (!init.uniform_attitude).then(|| QuaternionMsg::from_domain(&init.q)),
         sigma_deg: (!init.uniform_attitude)

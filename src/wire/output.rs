@@ -66,6 +66,9 @@ pub struct DiagnosticsMsg {
     pub ess: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
+    /// The sparse-grid level of an SGHQF.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<u8>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub concentration: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -334,6 +337,7 @@ impl From<Published> for EstimateMsg {
         d.replayed = p.replayed;
         d.late_fused = p.late_fused;
         d.imu = p.imu.as_ref().map(ImuDiagnosticsMsg::from);
+        d.level = p.level;
         msg
     }
 }

@@ -2,6 +2,7 @@
 
 use super::input::{some, some_number, some_object, some_vec3, Three};
 use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
+use crate::filters::sghqf::LEVELS;
 use crate::filters::{Fiducial, FilterKind, FilterSpec};
 use crate::service::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
 use nalgebra::{Matrix6, Vector3};
@@ -61,7 +62,7 @@ impl PerAxis {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ResetMsg {
-    /// `mekf`, `usque` or `qpf` (default: the vehicle's configured filter).
+    /// `mekf`, `usque`, `qpf` or `sghqf` (default: the vehicle's configured filter).
     #[serde(default, deserialize_with = "some")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub filter: Option<String>,
@@ -72,6 +73,10 @@ pub struct ResetMsg {
     #[serde(default, deserialize_with = "some_number")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
+    /// The SGHQF's sparse-grid level, 2..=4.
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub level: Option<u64>,
     /// The attitude; absent means initialise from the next vector-observation set.
     #[serde(default, deserialize_with = "some_object")]
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -105,6 +110,8 @@ pub struct ResetReplyMsg {
     pub fiducial: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<u8>,
     /// The new estimate when the reset gave an attitude; null while initialising.
     pub estimate: Option<EstimateMsg>,
 }
@@ -112,7 +119,8 @@ pub struct ResetReplyMsg {
 impl TryFrom<&ResetMsg> for ResetRequest {
     type Error = Rejection;
 
-    /// Every value of the request on its own: known names, particles in range, a unit quaternion,
+    /// Every value of the request on its own: known names, particles and level in range, a unit
+    /// quaternion,
     /// finite values, positive 1σ, a time within the contract's range.
     fn try_from(m: &ResetMsg) -> Result<Self, Rejection> {
         let bad = |code: RejectCode, m: String| Err(Rejection::new(code, m));
@@ -123,7 +131,7 @@ impl TryFrom<&ResetMsg> for ResetRequest {
                 Err(_) => {
                     return bad(
                         RejectCode::BadRequest,
-                        format!("filter '{k}': expected mekf, usque or qpf"),
+                        format!("filter '{k}': expected mekf, usque, qpf or sghqf"),
                     )
                 }
             },
@@ -148,6 +156,22 @@ impl TryFrom<&ResetMsg> for ResetRequest {
                 );
             }
         }
+        let level = match m.level {
+            None => None,
+            Some(l) if (*LEVELS.start() as u64..=*LEVELS.end() as u64).contains(&l) => {
+                Some(l as u8)
+            }
+            Some(l) => {
+                return bad(
+                    RejectCode::BadRequest,
+                    format!(
+                        "level must be in {}..={}, got {l}",
+                        LEVELS.start(),
+                        LEVELS.end()
+                    ),
+                )
+            }
+        };
         let q = m.q.map(|q| q.to_domain()).transpose()?;
         let sigma_deg = m.sigma_deg.map(|s| s.to_vector());
         if let Some(s) = sigma_deg {
@@ -186,6 +210,7 @@ impl TryFrom<&ResetMsg> for ResetRequest {
             filter,
             fiducial,
             particles: m.particles,
+            level,
             q,
             sigma_att_rad: sigma_deg.map(|s| s * std::f64::consts::PI / 180.0),
             bias_rad_s: bias,
@@ -208,6 +233,7 @@ impl From<ResetOutcome> for ResetReplyMsg {
             filter: o.spec.kind.as_str().into(),
             fiducial: o.spec.fiducial.map(|f| f.as_str().into()),
             particles: o.particles,
+            level: o.level,
             estimate: o.estimate.as_ref().map(EstimateMsg::from),
         }
     }
@@ -228,6 +254,7 @@ impl TryFrom<&EstimateMsg> for TakeoverSeed {
             covariance: Matrix6::from_fn(|i, j| e.cov[i][j]),
             spec,
             particles: e.diagnostics.particles,
+            level: e.diagnostics.level,
             seq: e.seq,
         }
         .validated()

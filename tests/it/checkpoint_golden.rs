@@ -3,13 +3,14 @@
 //! format fails here instead of silently orphaning the checkpoints of a running service: bump
 //! `persist::VERSION`, keep the old files (a checkpoint of another version is refused with a clear
 //! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`, which
-//! reads the format-3 files kept here), and add the new version's files with
+//! reads the format-3 and format-4 files kept here), and add the new version's files with
 //!
 //!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test it checkpoint_golden:: -- --test-threads=1
 //!
-//! Two vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
-//! low-passes, rest detector and field model) and an MEKF fed gyro and named vector sensors (gate
-//! counts, the sensor models' state).
+//! Three vehicles: a particle filter fed raw IMU samples (particles, weights, RNG, the IMU pipeline's
+//! low-passes, rest detector and field model), an MEKF fed gyro and named vector sensors (gate
+//! counts, the sensor models' state) and, from format 5, an SGHQF (level 3, averaged fiducial) fed the
+//! same, saved between a propagation and an update (its propagated points).
 
 use crate::common::{imu_preset, repo, scratch_dir};
 use attitude_service::attitude::Quaternion;
@@ -24,9 +25,11 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-const VERSION: u32 = 4;
-/// The format before this one (bincode of the core's own types), kept to show it is refused.
-const OLD_VERSION: u32 = 3;
+const VERSION: u32 = 5;
+/// Formats before this one, kept to show they are refused: 3 (bincode of the core's own types) and 4
+/// (no SGHQF, no sparse-grid level), each with the two vehicles it had.
+const OLD_VERSIONS: [u32; 2] = [3, 4];
+const OLD_NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
 
 fn dir() -> PathBuf {
     repo().join("tests/data/checkpoints")
@@ -89,16 +92,18 @@ fn vectors(k: usize) -> Measurement {
     })
 }
 
-/// The vehicle of golden file `name` after its first `n` inputs, and the inputs after them.
+/// The vehicle of golden file `name` after the first half of its inputs, and the inputs after them.
 fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
     let (mut f, mut p) = imu_preset();
+    // The SGHQF's half ends on a gyro sample, after which its propagated points are kept.
+    let extra = usize::from(name == "sghqf-vectors");
     let inputs: Vec<Measurement> = match name {
         "qpf-imu" => {
             f.filter.spec = "qpf:average".parse().unwrap();
             f.filter.particles = 64;
             (1..=400).map(|k| Measurement::Imu(imu(k))).collect()
         }
-        "mekf-vectors" => {
+        "mekf-vectors" | "sghqf-vectors" => {
             // The defaults, with an accelerometer and a magnetometer modelled (their state is saved).
             let text = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/config/default.json5")).replace(
                 "    sensors: {},",
@@ -108,12 +113,16 @@ fn vehicle(name: &str) -> (VehicleState, Policy, Vec<Measurement>) {
             assert!(!c.service.policy.sensor_models.is_empty());
             f = c.service.default_filter.clone();
             p = c.service.policy.clone();
+            if name == "sghqf-vectors" {
+                f.filter.spec = "sghqf:average".parse().unwrap();
+                f.filter.level = 3;
+            }
             (0..60).flat_map(|k| [gyro(k), vectors(k)]).collect()
         }
         _ => unreachable!(),
     };
     let mut v = VehicleState::new(&format!("golden-{name}"), f);
-    let (first, rest) = inputs.split_at(inputs.len() / 2);
+    let (first, rest) = inputs.split_at(inputs.len() / 2 + extra);
     let mut events = Vec::new();
     for m in first {
         let _ = v.on_measurement(m.clone(), 0.0, &p, &mut events);
@@ -144,7 +153,7 @@ fn continue_with(v: &mut VehicleState, p: &Policy, inputs: &[Measurement]) -> us
         .count()
 }
 
-const NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
+const NAMES: [&str; 3] = ["qpf-imu", "mekf-vectors", "sghqf-vectors"];
 
 #[test]
 fn golden_checkpoints_read_back_and_write_back_the_same() {
@@ -228,22 +237,25 @@ fn checkpoints_of_another_version_are_refused() {
     // and skipped, the good one restored.
     let tmp = scratch_dir("golden");
     std::fs::create_dir_all(&tmp).unwrap();
-    for name in NAMES {
-        let old = std::fs::read(dir().join(format!("v{OLD_VERSION}-{name}.ckpt"))).unwrap();
-        assert_eq!(old[8..12], OLD_VERSION.to_le_bytes());
-        std::fs::write(tmp.join(format!("golden-old-{name}.ckpt")), old).unwrap();
+    for old_version in OLD_VERSIONS {
+        for name in OLD_NAMES {
+            let old = std::fs::read(dir().join(format!("v{old_version}-{name}.ckpt"))).unwrap();
+            assert_eq!(old[8..12], old_version.to_le_bytes());
+            std::fs::write(tmp.join(format!("golden-v{old_version}-{name}.ckpt")), old).unwrap();
+        }
     }
     std::fs::write(tmp.join("golden-qpf-imu.ckpt"), &bytes).unwrap();
     let (good, bad) = persist::load_dir(&tmp).unwrap();
     std::fs::remove_dir_all(&tmp).unwrap();
     assert_eq!(good.len(), 1);
-    assert_eq!(bad.len(), 2);
+    assert_eq!(bad.len(), OLD_VERSIONS.len() * OLD_NAMES.len());
     for b in &bad {
+        let b = b.to_string();
         assert!(
-            b.to_string().contains(&format!(
-                "format version {OLD_VERSION}, written by an earlier build: this build reads \
+            OLD_VERSIONS.iter().any(|old| b.contains(&format!(
+                "format version {old}, written by an earlier build: this build reads \
                  format {VERSION} only, the vehicle starts afresh"
-            )),
+            ))),
             "{b}"
         );
     }
@@ -267,6 +279,10 @@ fn a_damaged_state_is_refused_with_its_reason() {
             FilterState::Qpf(_, q) => {
                 q.cloud.w[0] += 0.5;
                 "particle weights are not normalised"
+            }
+            FilterState::Sghqf(_, s) => {
+                s.q_ref.w *= 2.0;
+                "SGHQF chart centre is not a unit quaternion"
             }
             FilterState::Usque(..) => unreachable!(),
         };

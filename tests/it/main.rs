@@ -21,6 +21,7 @@ mod proto;
 mod qpf;
 mod robustness;
 mod service;
+mod sghqf;
 mod soak_cli;
 mod tidy;
 mod usque;

@@ -198,6 +198,17 @@ fn bad_arguments_are_refused_with_a_reason() {
             vec!["--scenario", "star-tracker", "--duration=-5"],
             "duration",
         ),
+        (
+            vec![
+                "--scenario",
+                "star-tracker",
+                "--filters",
+                "sghqf",
+                "--level",
+                "5",
+            ],
+            "--level",
+        ),
     ] {
         let out = scratch_dir("bad");
         let output = service_bin()
@@ -260,6 +271,45 @@ fn particle_filter_studies_are_deterministic_too() {
     for d in [a_dir, b_dir] {
         let _ = std::fs::remove_dir_all(d);
     }
+}
+
+/// The SGHQF in a study: its level on its rows only (`--level`), and both fiducials the same to
+/// rounding in this short run (the symmetry argument of docs/algorithms.md §3).
+#[test]
+fn sghqf_rows_carry_their_level() {
+    let args = [
+        "--scenario",
+        "star-tracker",
+        "--filters",
+        "sghqf:propagated,sghqf:average,usque:average",
+        "--level",
+        "2",
+        "--runs",
+        "2",
+        "--duration",
+        "120",
+        "--jobs",
+        "1",
+    ];
+    let out = scratch_dir("sghqf-study");
+    let rows = run(&args, &out);
+    let labels: Vec<(&str, Option<u8>)> =
+        rows.iter().map(|s| (s.filter.as_str(), s.level)).collect();
+    assert_eq!(
+        labels,
+        [
+            ("sghqf:propagated", Some(2)),
+            ("sghqf:average", Some(2)),
+            ("usque:average", None)
+        ]
+    );
+    assert_eq!(rows[0].kind, "sghqf");
+    for (p, a) in rows[0].steady_rms_deg.iter().zip(rows[1].steady_rms_deg) {
+        assert!((p - a).abs() < 1e-6 * p, "{p} vs {a}");
+    }
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("| `sghqf:average` | L = 2 |"), "{md}");
+    let _ = std::fs::remove_dir_all(out);
 }
 
 #[test]

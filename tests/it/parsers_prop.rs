@@ -8,7 +8,7 @@
 //! code the step can give and a non-empty message. Valid messages round-trip exactly.
 //!
 //! Filters (`mekf`, `usque:average`, `usque:propagated`, `qpf:average` and `qpf:propagated` at 50
-//! particles), on random measurement sequences with equal and backward times, extreme rates, extreme
+//! particles, `sghqf:average` and `sghqf:propagated` at level 3), on random measurement sequences with equal and backward times, extreme rates, extreme
 //! and degenerate vectors and sigmas, NaN and infinities: nothing panics; after every call the
 //! estimate is healthy (finite unit quaternion, finite symmetric covariance with a non-negative
 //! diagonal); a refused measurement leaves the filter bit for bit as it was, except what the contract of
@@ -227,7 +227,7 @@ fn key() -> impl Strategy<Value = String> {
     prop_oneof![
         3 => prop::sample::select(vec![
             "t", "omega", "obs", "body", "ref", "sigma", "sensor", "filter", "fiducial",
-            "particles", "q", "w", "x", "y", "z", "sigma_deg", "bias", "bias_sigma",
+            "particles", "level", "q", "w", "x", "y", "z", "sigma_deg", "bias", "bias_sigma",
         ])
         .prop_map(String::from),
         1 => ".{0,8}",
@@ -317,7 +317,7 @@ fn plausible(field: &str) -> BoxedStrategy<J> {
         "sigma_deg" | "bias_sigma" => one_or_three().boxed(),
         "sensor" => string_text().prop_map(J::Str).boxed(),
         "filter" => prop_oneof![
-            3 => prop::sample::select(vec!["mekf", "usque", "qpf"]).prop_map(|s| J::Str(s.into())),
+            3 => prop::sample::select(vec!["mekf", "usque", "qpf", "sghqf"]).prop_map(|s| J::Str(s.into())),
             1 => string_text().prop_map(J::Str),
         ]
         .boxed(),
@@ -328,6 +328,12 @@ fn plausible(field: &str) -> BoxedStrategy<J> {
         .boxed(),
         "particles" => prop_oneof![
             3 => prop::sample::select(vec!["0", "1", "2", "50", "300", "1000000", "1000001", "-3", "2.5"])
+                .prop_map(|s| J::Num(s.into())),
+            1 => number_text().prop_map(J::Num),
+        ]
+        .boxed(),
+        "level" => prop_oneof![
+            3 => prop::sample::select(vec!["1", "2", "3", "4", "5", "-3", "2.5"])
                 .prop_map(|s| J::Num(s.into())),
             1 => number_text().prop_map(J::Num),
         ]
@@ -396,6 +402,7 @@ fn shaped_reset() -> impl Strategy<Value = J> {
         "filter",
         "fiducial",
         "particles",
+        "level",
         "q",
         "sigma_deg",
         "bias",
@@ -522,9 +529,9 @@ fn valid_reset() -> impl Strategy<Value = ResetMsg> {
             .prop_map(|(a, b, c)| PerAxis::Three([a, b, c])),
     ];
     (
-        prop::option::of(prop::sample::select(vec!["mekf", "usque", "qpf"])),
+        prop::option::of(prop::sample::select(vec!["mekf", "usque", "qpf", "sghqf"])),
         prop::option::of(prop::sample::select(vec!["average", "propagated"])),
-        prop::option::of(2usize..300),
+        (prop::option::of(2usize..300), prop::option::of(2u64..=4)),
         prop::option::of(quat),
         prop::option::of(per_axis),
         prop::option::of((-1e-3f64..1e-3, -1e-3f64..1e-3, -1e-3f64..1e-3)),
@@ -532,13 +539,14 @@ fn valid_reset() -> impl Strategy<Value = ResetMsg> {
         prop::option::of(wire_number()),
     )
         .prop_map(
-            |(filter, fiducial, particles, q, sigma_deg, bias, bias_sigma, t)| {
+            |(filter, fiducial, (particles, level), q, sigma_deg, bias, bias_sigma, t)| {
                 // The MEKF has no fiducial: a valid request does not name one for it.
                 let fiducial = fiducial.filter(|_| filter != Some("mekf"));
                 ResetMsg {
                     filter: filter.map(String::from),
                     fiducial: fiducial.map(String::from),
                     particles,
+                    level,
                     q,
                     sigma_deg,
                     bias: bias.map(|(a, b, c)| [a, b, c]),
@@ -1053,7 +1061,7 @@ proptest! {
     ) {
         let value = serde_json::to_value(&req).unwrap();
         let optional = [
-            "filter", "fiducial", "particles", "q", "sigma_deg", "bias", "bias_sigma", "t",
+            "filter", "fiducial", "particles", "level", "q", "sigma_deg", "bias", "bias_sigma", "t",
         ];
         let (text, expect) = mutate(&J::from_value(&value), &m, &optional);
         check_reset_payload(text.as_bytes(), &limits)?;
@@ -1191,12 +1199,14 @@ fn a_string_where_a_number_belongs_is_a_bad_request() {
 // ================================================================================================
 // Filter inputs
 
-const FILTERS: [&str; 5] = [
+const FILTERS: [&str; 7] = [
     "mekf",
     "usque:average",
     "usque:propagated",
     "qpf:average",
     "qpf:propagated",
+    "sghqf:average",
+    "sghqf:propagated",
 ];
 
 fn filter_config(spec: &str) -> FilterConfig {
@@ -1700,6 +1710,16 @@ proptest! {
         run_filter(FILTERS[4], &init, seed, &ms, PARTICLE)?;
     }
 
+    #[test]
+    fn sghqf_average_survives_any_input(init in initial_state(KALMAN), seed in any::<u64>(), ms in measurements(KALMAN)) {
+        run_filter(FILTERS[5], &init, seed, &ms, KALMAN)?;
+    }
+
+    #[test]
+    fn sghqf_propagated_survives_any_input(init in initial_state(KALMAN), seed in any::<u64>(), ms in measurements(KALMAN)) {
+        run_filter(FILTERS[6], &init, seed, &ms, KALMAN)?;
+    }
+
     /// The full strategy, vector sets ahead of the filter's time included, and a start without a
     /// time: a vector set refused after the propagation to its time leaves the filter propagated
     /// there (the contract of `AttitudeFilter::process`, FINDING 1; the service's vehicle follows
@@ -1725,7 +1745,7 @@ proptest! {
 // `limits.max_rate_rad_s`).
 #[test]
 fn a_huge_gyro_rate_does_not_wedge_the_filter() {
-    for spec in ["mekf", "usque:average", "usque:propagated"] {
+    for spec in ["mekf", "usque:average", "usque:propagated", "sghqf:average"] {
         let initial = InitialState {
             t_s: Some(0.0),
             q: Quaternion::IDENTITY,

@@ -396,6 +396,7 @@ fn full_estimate() -> EstimateMsg {
             nis_dof: Some(6),
             ess: Some(512.5),
             particles: Some(1000),
+            level: Some(3),
             concentration: Some(0.999),
             eigen_gap: Some(0.998),
             pc_stages: Some(2),
@@ -481,6 +482,7 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         filter: Some("qpf".into()),
         fiducial: Some("propagated".into()),
         particles: Some(2000),
+        level: Some(3),
         q: Some(QuaternionMsg {
             w: 0.0,
             x: -0.6,
@@ -503,6 +505,7 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         filter: "qpf".into(),
         fiducial: Some("average".into()),
         particles: Some(1000),
+        level: Some(3),
         estimate: Some(full_estimate()),
     };
     let vehicle = VehicleInfoMsg {
@@ -1331,6 +1334,7 @@ fn required_fields_are_what_rust_always_sends() {
                 filter: "mekf".into(),
                 fiducial: None,
                 particles: None,
+                level: None,
                 estimate: None,
             })
             .unwrap(),
@@ -1343,6 +1347,7 @@ fn required_fields_are_what_rust_always_sends() {
                 filter: "mekf".into(),
                 fiducial: None,
                 particles: None,
+                level: None,
                 estimate: Some(estimate.clone()),
             })
             .unwrap(),

@@ -277,6 +277,9 @@ class Hostile:
             (b'{"filter": "qpf", "particles": 1000001}', "bad_request"),
             (b'{"filter": "qpf", "particles": -3}', "bad_request"),
             (b'{"filter": "qpf", "particles": 2.5}', "bad_request"),
+            (b'{"filter": "sghqf", "level": 1}', "bad_request"),
+            (b'{"filter": "sghqf", "level": 5}', "bad_request"),
+            (b'{"filter": "sghqf", "level": 2.5}', "bad_request"),
             (b'{"filter": "usque", "fiducial": "median"}', "bad_request"),
             (b'{"q": {"w": 2, "x": 0, "y": 0, "z": 0}}', "bad_request"),
             (b'{"q": {"w": 1, "x": 0, "y": 0}}', "bad_request"),
@@ -340,13 +343,15 @@ class Hostile:
     def any_reset(self) -> bytes:
         rng = self.rng
         if rng.random() < 0.4:
-            return self.invalid_reset(rng.choice(["mekf", "usque", "qpf"]))[0]
+            return self.invalid_reset(rng.choice(["mekf", "usque", "qpf", "sghqf"]))[0]
         fields = {}
-        for name in rng.sample(["filter", "fiducial", "particles", "q", "sigma_deg", "bias", "bias_sigma", "t", "junk"], rng.randint(0, 4)):
+        for name in rng.sample(["filter", "fiducial", "particles", "level", "q", "sigma_deg", "bias", "bias_sigma", "t", "junk"],
+                               rng.randint(0, 4)):
             fields[name] = {
-                "filter": lambda: rng.choice(["mekf", "usque", "qpf", "ekf", None, 3]),
+                "filter": lambda: rng.choice(["mekf", "usque", "qpf", "sghqf", "ekf", None, 3]),
                 "fiducial": lambda: rng.choice(["average", "propagated", "median", None]),
                 "particles": lambda: rng.choice([2, 50, 0, 1, -1, 2.5, 1000001, "x"]),
+                "level": lambda: rng.choice([2, 3, 4, 1, 5, 2.5, "3", None]),
                 "q": lambda: rng.choice([dict(zip("wxyz", unit(rng) + [0.0])), {"w": 1, "x": 0, "y": 0, "z": 0}, [1, 0, 0, 0], {"w": 3}, None]),
                 "sigma_deg": lambda: rng.choice([1, 0.1, 360, 361, 0, -1, [1, 2, 3], [1, None, 1], 1e-300, None]),
                 "bias": lambda: rng.choice([[0, 0, 0], [1e-5, 0, 0], [1e308, 0, 0], [0, 0], None]),

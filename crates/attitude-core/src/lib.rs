@@ -4,7 +4,8 @@
 //! * [`attitude`]: quaternions (the conventions), Rodrigues parameters, the weighted quaternion
 //!   average, the q-method.
 //! * [`sensors`]: measurement types and sensor models; [`ahrs`]: raw IMU samples to filter inputs.
-//! * [`filters`]: the MEKF, USQUE and the quaternion particle filter behind one interface.
+//! * [`filters`]: the MEKF, USQUE, the quaternion particle filter and the sparse-grid quadrature
+//!   filter behind one interface.
 //! * [`bounds`]: the Cramér–Rao bounds; [`rng`]: the particle filter's random numbers;
 //!   [`sim`]: truth and measurement simulation.
 //! * [`vehicle`]: one vehicle as a state machine (reorder window, time checks, gate, health, resets),

@@ -198,6 +198,15 @@ fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, Str
             raw.particles
         ));
     }
+    let levels = crate::filters::sghqf::LEVELS;
+    if !(*levels.start() as u64..=*levels.end() as u64).contains(&raw.level) {
+        return Err(format!(
+            "{at}.level must be in {}..={}, got {}",
+            levels.start(),
+            levels.end(),
+            raw.level
+        ));
+    }
     let init = match raw.init.as_str() {
         "vectors" => InitMode::Vectors,
         "uniform" if kind == FilterKind::Qpf => InitMode::Uniform,
@@ -247,6 +256,7 @@ fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, Str
     }
     let mut filter = FilterConfig::new(FilterSpec { kind, fiducial }, gyro);
     filter.particles = raw.particles;
+    filter.level = raw.level as u8;
     filter.qpf = qpf;
     filter.usque = UsqueOptions {
         grp: Grp::new(u.a, u.f),
@@ -294,6 +304,9 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         }
         if let Some(v) = o.particles {
             f.particles = v;
+        }
+        if let Some(v) = o.level {
+            f.level = v;
         }
         if let Some(v) = o.gyro_arw_rad_sqrt_s {
             f.gyro_arw_rad_sqrt_s = v;

@@ -1,4 +1,4 @@
-//! The checkpoint payload, format 4: structs of its own, converted from and to the core's plain-data
+//! The checkpoint payload, format 5: structs of its own, converted from and to the core's plain-data
 //! states (`VehicleSnapshot`, `FilterState`, `AhrsState`, …). The layout is bincode (fixed-width
 //! little-endian integers, `f64` as IEEE bits, lengths as `u64`) of the structs below, field by field in
 //! the order written here; vectors are `[x, y, z]`, quaternions `[x, y, z, w]` (scalar last, the
@@ -17,11 +17,12 @@ use crate::ahrs::rest::RestDetector;
 use crate::ahrs::{AhrsCounts, AhrsState, Phase};
 use crate::attitude::{Grp, Quaternion};
 use crate::filters::qpf::Cloud;
+use crate::filters::sghqf::Points;
 use crate::filters::usque::{SigmaPoints, N_SIGMA};
 use crate::filters::{
     Diagnostics, DriverState, Estimate, Fiducial, FilterConfig, FilterKind, FilterSpec,
-    FilterState, GapModel, GyroErrors, Kernel, MekfState, QpfOptions, QpfState, UsqueOptions,
-    UsqueState,
+    FilterState, GapModel, GyroErrors, Kernel, MekfState, QpfOptions, QpfState, SghqfState,
+    UsqueOptions, UsqueState,
 };
 use crate::sensors::imu::{LowpassState, SensorState};
 use crate::sensors::{
@@ -50,7 +51,7 @@ macro_rules! as_is {
         }
     )*};
 }
-as_is!(f64, u64, u32, bool, String);
+as_is!(f64, u64, u32, u8, bool, String);
 
 impl Saved for usize {
     type Form = u64;
@@ -209,16 +210,16 @@ macro_rules! unit_enum {
     };
 }
 
-unit_enum!(KindV4 for FilterKind { Mekf, Usque, Qpf });
-unit_enum!(FiducialV4 for Fiducial { Propagated, Average });
-unit_enum!(KernelV4 for Kernel { Gaussian, Epanechnikov });
-unit_enum!(InitModeV4 for InitMode { Vectors, Uniform });
-unit_enum!(StreamV4 for Stream { Gyro, Vectors, Imu });
+unit_enum!(KindV5 for FilterKind { Mekf, Usque, Qpf, Sghqf });
+unit_enum!(FiducialV5 for Fiducial { Propagated, Average });
+unit_enum!(KernelV5 for Kernel { Gaussian, Epanechnikov });
+unit_enum!(InitModeV5 for InitMode { Vectors, Uniform });
+unit_enum!(StreamV5 for Stream { Gyro, Vectors, Imu });
 
-saved!(SpecV4 for FilterSpec { kind: FilterKind, fiducial: Option<Fiducial> });
-saved!(GyroNoiseV4 for GyroNoise { sigma_v: f64, sigma_u: f64 });
-saved!(GrpV4 for Grp { a: f64, f: f64 });
-saved!(QpfOptionsV4 for QpfOptions {
+saved!(SpecV5 for FilterSpec { kind: FilterKind, fiducial: Option<Fiducial> });
+saved!(GyroNoiseV5 for GyroNoise { sigma_v: f64, sigma_u: f64 });
+saved!(GrpV5 for Grp { a: f64, f: f64 });
+saved!(QpfOptionsV5 for QpfOptions {
     kernel: Kernel,
     bandwidth_scale: f64,
     resample_fraction: f64,
@@ -226,13 +227,14 @@ saved!(QpfOptionsV4 for QpfOptions {
     pc_max_stages: u32,
     inflation: f64,
 });
-saved!(UsqueOptionsV4 for UsqueOptions { grp: Grp, lambda: f64 });
-saved!(GapV4 for GapModel { after_s: f64, accel_sigma_rad_s2: f64 });
-saved!(GyroErrorsV4 for GyroErrors { rate_noise_sqrt_s: f64, bias_limit_rad_s: f64 });
-saved!(FilterConfigV4 for FilterConfig {
+saved!(UsqueOptionsV5 for UsqueOptions { grp: Grp, lambda: f64 });
+saved!(GapV5 for GapModel { after_s: f64, accel_sigma_rad_s2: f64 });
+saved!(GyroErrorsV5 for GyroErrors { rate_noise_sqrt_s: f64, bias_limit_rad_s: f64 });
+saved!(FilterConfigV5 for FilterConfig {
     spec: FilterSpec,
     gyro: GyroNoise,
     particles: usize,
+    level: u8,
     qpf: QpfOptions,
     usque: UsqueOptions,
     gap: GapModel,
@@ -240,7 +242,7 @@ saved!(FilterConfigV4 for FilterConfig {
 });
 saved!(
     /// The vehicle's filter configuration (a reset may have changed it from the service's).
-    VehicleConfigV4 for VehicleFilterConfig {
+    VehicleConfigV5 for VehicleFilterConfig {
         filter: FilterConfig,
         init: InitMode,
         init_bias_sigma_rad_s: Vector3<f64>,
@@ -248,16 +250,16 @@ saved!(
 );
 
 // Measurements held in the reorder window.
-saved!(GyroSampleV4 for GyroSample { t_s: f64, omega_body_rad_s: Vector3<f64> });
-saved!(ObservationV4 for VectorObservation {
+saved!(GyroSampleV5 for GyroSample { t_s: f64, omega_body_rad_s: Vector3<f64> });
+saved!(ObservationV5 for VectorObservation {
     body: Vector3<f64>,
     reference: Vector3<f64>,
     sigma: f64,
     sensor: Option<String>,
     aspect: Aspect,
 });
-saved!(ObservationSetV4 for ObservationSet { t_s: f64, observations: Vec<VectorObservation> });
-saved!(ImuSampleV4 for ImuSample {
+saved!(ObservationSetV5 for ObservationSet { t_s: f64, observations: Vec<VectorObservation> });
+saved!(ImuSampleV5 for ImuSample {
     t_s: f64,
     gyr_rad_s: Vector3<f64>,
     acc_m_s2: Vector3<f64>,
@@ -265,57 +267,57 @@ saved!(ImuSampleV4 for ImuSample {
 });
 
 #[derive(Serialize, Deserialize)]
-pub enum AspectV4 {
+pub enum AspectV5 {
     Full,
     Heading([f64; 3]),
     Tilt([f64; 3]),
 }
 
 impl Saved for Aspect {
-    type Form = AspectV4;
-    fn save(&self) -> AspectV4 {
+    type Form = AspectV5;
+    fn save(&self) -> AspectV5 {
         match self {
-            Aspect::Full => AspectV4::Full,
-            Aspect::Heading(v) => AspectV4::Heading(v.save()),
-            Aspect::Tilt(v) => AspectV4::Tilt(v.save()),
+            Aspect::Full => AspectV5::Full,
+            Aspect::Heading(v) => AspectV5::Heading(v.save()),
+            Aspect::Tilt(v) => AspectV5::Tilt(v.save()),
         }
     }
-    fn load(f: AspectV4) -> Result<Self, String> {
+    fn load(f: AspectV5) -> Result<Self, String> {
         Ok(match f {
-            AspectV4::Full => Aspect::Full,
-            AspectV4::Heading(v) => Aspect::Heading(Vector3::load(v)?),
-            AspectV4::Tilt(v) => Aspect::Tilt(Vector3::load(v)?),
+            AspectV5::Full => Aspect::Full,
+            AspectV5::Heading(v) => Aspect::Heading(Vector3::load(v)?),
+            AspectV5::Tilt(v) => Aspect::Tilt(Vector3::load(v)?),
         })
     }
 }
 
 #[derive(Serialize, Deserialize)]
-pub enum MeasurementV4 {
-    Gyro(GyroSampleV4),
-    Vectors(ObservationSetV4),
-    Imu(ImuSampleV4),
+pub enum MeasurementV5 {
+    Gyro(GyroSampleV5),
+    Vectors(ObservationSetV5),
+    Imu(ImuSampleV5),
 }
 
 impl Saved for Measurement {
-    type Form = MeasurementV4;
-    fn save(&self) -> MeasurementV4 {
+    type Form = MeasurementV5;
+    fn save(&self) -> MeasurementV5 {
         match self {
-            Measurement::Gyro(g) => MeasurementV4::Gyro(g.save()),
-            Measurement::Vectors(s) => MeasurementV4::Vectors(s.save()),
-            Measurement::Imu(s) => MeasurementV4::Imu(s.save()),
+            Measurement::Gyro(g) => MeasurementV5::Gyro(g.save()),
+            Measurement::Vectors(s) => MeasurementV5::Vectors(s.save()),
+            Measurement::Imu(s) => MeasurementV5::Imu(s.save()),
         }
     }
-    fn load(f: MeasurementV4) -> Result<Self, String> {
+    fn load(f: MeasurementV5) -> Result<Self, String> {
         Ok(match f {
-            MeasurementV4::Gyro(g) => Measurement::Gyro(GyroSample::load(g)?),
-            MeasurementV4::Vectors(s) => Measurement::Vectors(ObservationSet::load(s)?),
-            MeasurementV4::Imu(s) => Measurement::Imu(ImuSample::load(s)?),
+            MeasurementV5::Gyro(g) => Measurement::Gyro(GyroSample::load(g)?),
+            MeasurementV5::Vectors(s) => Measurement::Vectors(ObservationSet::load(s)?),
+            MeasurementV5::Imu(s) => Measurement::Imu(ImuSample::load(s)?),
         })
     }
 }
 
 // Filters.
-saved!(DiagnosticsV4 for Diagnostics {
+saved!(DiagnosticsV5 for Diagnostics {
     propagations: u64,
     updates: u64,
     nis: Option<f64>,
@@ -329,14 +331,14 @@ saved!(DiagnosticsV4 for Diagnostics {
     gyro_gap_s: Option<f64>,
     gyro_gaps: u64,
 });
-saved!(EstimateV4 for Estimate {
+saved!(EstimateV5 for Estimate {
     t_s: f64,
     q: Quaternion,
     bias_rad_s: Vector3<f64>,
     covariance: Matrix6<f64>,
     diagnostics: Diagnostics,
 });
-saved!(DriverV4 for DriverState {
+saved!(DriverV5 for DriverState {
     t_s: Option<f64>,
     omega_meas_rad_s: Option<Vector3<f64>>,
     last_gyro_t_s: Option<f64>,
@@ -346,7 +348,7 @@ saved!(DriverV4 for DriverState {
     sigma_v: f64,
     gyro_gaps: u64,
 });
-saved!(MekfV4 for MekfState {
+saved!(MekfV5 for MekfState {
     gyro: GyroNoise,
     gyro_errors: GyroErrors,
     q: Quaternion,
@@ -354,8 +356,8 @@ saved!(MekfV4 for MekfState {
     p: Matrix6<f64>,
     diagnostics: Diagnostics,
 });
-saved!(SigmaPointsV4 for SigmaPoints { q: [Quaternion; N_SIGMA], chi: [Vector6<f64>; N_SIGMA] });
-saved!(UsqueV4 for UsqueState {
+saved!(SigmaPointsV5 for SigmaPoints { q: [Quaternion; N_SIGMA], chi: [Vector6<f64>; N_SIGMA] });
+saved!(UsqueV5 for UsqueState {
     gyro: GyroNoise,
     gyro_errors: GyroErrors,
     options: UsqueOptions,
@@ -367,8 +369,23 @@ saved!(UsqueV4 for UsqueState {
     diagnostics: Diagnostics,
 });
 saved!(
+    /// The propagated points (one per point of the level's rule; `restore` checks the count).
+    PointsV5 for Points { q: Vec<Quaternion>, chi: Vec<Vector6<f64>> }
+);
+saved!(SghqfV5 for SghqfState {
+    gyro: GyroNoise,
+    gyro_errors: GyroErrors,
+    level: u8,
+    fiducial: Fiducial,
+    q_ref: Quaternion,
+    x: Vector6<f64>,
+    p: Matrix6<f64>,
+    points: Option<Points>,
+    diagnostics: Diagnostics,
+});
+saved!(
     /// The particles, structure of arrays.
-    CloudV4 for Cloud {
+    CloudV5 for Cloud {
         qx: Vec<f64>,
         qy: Vec<f64>,
         qz: Vec<f64>,
@@ -381,7 +398,7 @@ saved!(
 );
 saved!(
     /// `rng` is the Xoshiro256++ state: a restored filter draws what the saved one would have.
-    QpfV4 for QpfState {
+    QpfV5 for QpfState {
         fiducial: Fiducial,
         options: QpfOptions,
         gyro: GyroNoise,
@@ -400,42 +417,47 @@ saved!(
 #[derive(Serialize, Deserialize)]
 // Made once per checkpoint, never stored in bulk: the size of the largest variant costs nothing.
 #[allow(clippy::large_enum_variant)]
-pub enum FilterV4 {
-    Mekf(DriverV4, MekfV4),
-    Usque(DriverV4, UsqueV4),
-    Qpf(DriverV4, QpfV4),
+pub enum FilterV5 {
+    Mekf(DriverV5, MekfV5),
+    Usque(DriverV5, UsqueV5),
+    Qpf(DriverV5, QpfV5),
+    Sghqf(DriverV5, SghqfV5),
 }
 
 impl Saved for FilterState {
-    type Form = FilterV4;
-    fn save(&self) -> FilterV4 {
+    type Form = FilterV5;
+    fn save(&self) -> FilterV5 {
         match self {
-            FilterState::Mekf(d, s) => FilterV4::Mekf(d.save(), s.save()),
-            FilterState::Usque(d, s) => FilterV4::Usque(d.save(), s.save()),
-            FilterState::Qpf(d, s) => FilterV4::Qpf(d.save(), s.save()),
+            FilterState::Mekf(d, s) => FilterV5::Mekf(d.save(), s.save()),
+            FilterState::Usque(d, s) => FilterV5::Usque(d.save(), s.save()),
+            FilterState::Qpf(d, s) => FilterV5::Qpf(d.save(), s.save()),
+            FilterState::Sghqf(d, s) => FilterV5::Sghqf(d.save(), s.save()),
         }
     }
-    fn load(f: FilterV4) -> Result<Self, String> {
+    fn load(f: FilterV5) -> Result<Self, String> {
         Ok(match f {
-            FilterV4::Mekf(d, s) => FilterState::Mekf(DriverState::load(d)?, MekfState::load(s)?),
-            FilterV4::Usque(d, s) => {
+            FilterV5::Mekf(d, s) => FilterState::Mekf(DriverState::load(d)?, MekfState::load(s)?),
+            FilterV5::Usque(d, s) => {
                 FilterState::Usque(DriverState::load(d)?, UsqueState::load(s)?)
             }
-            FilterV4::Qpf(d, s) => FilterState::Qpf(DriverState::load(d)?, QpfState::load(s)?),
+            FilterV5::Qpf(d, s) => FilterState::Qpf(DriverState::load(d)?, QpfState::load(s)?),
+            FilterV5::Sghqf(d, s) => {
+                FilterState::Sghqf(DriverState::load(d)?, SghqfState::load(s)?)
+            }
         })
     }
 }
 
 // The raw-IMU pipeline.
-saved!(Lowpass3V4 for Lowpass3 {
+saved!(Lowpass3V5 for Lowpass3 {
     tau_s: f64,
     dt_s: f64,
     c: [f64; 5],
     x: [Vector3<f64>; 2],
     y: Option<[Vector3<f64>; 2]>,
 });
-saved!(RestV4 for RestDetector { gyr_lp: Lowpass3, acc_lp: Lowpass3, still_s: f64, at_rest: bool });
-saved!(GravityV4 for GravityChannel {
+saved!(RestV5 for RestDetector { gyr_lp: Lowpass3, acc_lp: Lowpass3, still_s: f64, at_rest: bool });
+saved!(GravityV5 for GravityChannel {
     lp: Lowpass3,
     lp2: Lowpass3,
     motion_ms: f64,
@@ -443,16 +465,16 @@ saved!(GravityV4 for GravityChannel {
     since_update_s: f64,
     sigma_lp_rad: f64,
 });
-saved!(HardIronSolutionV4 for HardIronSolution {
+saved!(HardIronSolutionV5 for HardIronSolution {
     field_gyro: Vector3<f64>,
     offset: Vector3<f64>,
     residual_rms: f64,
     offset_sigma: f64,
 });
-/// The hard-iron fit as format 4 keeps it: the dense normal matrix `Σ λ HᵀH`, which the core holds
+/// The hard-iron fit as the format keeps it: the dense normal matrix `Σ λ HᵀH`, which the core holds
 /// on its structure `[[n I, Jᵀ], [J, n I]]` (`HardIronFit::info`; a matrix without it is refused).
 #[derive(Serialize, Deserialize)]
-pub struct HardIronFitV4 {
+pub struct HardIronFitV5 {
     info: <Matrix6<f64> as Saved>::Form,
     rhs: <Vector6<f64> as Saved>::Form,
     ss: f64,
@@ -462,8 +484,8 @@ pub struct HardIronFitV4 {
 }
 
 impl Saved for HardIronFit {
-    type Form = HardIronFitV4;
-    fn save(&self) -> HardIronFitV4 {
+    type Form = HardIronFitV5;
+    fn save(&self) -> HardIronFitV5 {
         let HardIronFit {
             j: _,
             rhs,
@@ -472,7 +494,7 @@ impl Saved for HardIronFit {
             recent_ms,
             solution,
         } = self;
-        HardIronFitV4 {
+        HardIronFitV5 {
             info: self.info().save(),
             rhs: rhs.save(),
             ss: *ss,
@@ -481,7 +503,7 @@ impl Saved for HardIronFit {
             solution: solution.save(),
         }
     }
-    fn load(form: HardIronFitV4) -> Result<Self, String> {
+    fn load(form: HardIronFitV5) -> Result<Self, String> {
         let info = Matrix6::load(form.info)?;
         Ok(HardIronFit {
             j: HardIronFit::j_of_info(&info, form.n)?,
@@ -493,7 +515,7 @@ impl Saved for HardIronFit {
         })
     }
 }
-saved!(FieldV4 for FieldChannel {
+saved!(FieldV5 for FieldChannel {
     direction: Vector3<f64>,
     norm: f64,
     dip: f64,
@@ -515,7 +537,7 @@ saved!(FieldV4 for FieldChannel {
     new_fields: u64,
     hard_iron_changes: u64,
 });
-saved!(AhrsCountsV4 for AhrsCounts {
+saved!(AhrsCountsV5 for AhrsCounts {
     samples: u64,
     at_rest: bool,
     rest_samples: u64,
@@ -533,7 +555,7 @@ saved!(AhrsCountsV4 for AhrsCounts {
 });
 
 #[derive(Serialize, Deserialize)]
-pub enum PhaseV4 {
+pub enum PhaseV5 {
     Aligning {
         t0_s: f64,
         acc: [f64; 3],
@@ -545,8 +567,8 @@ pub enum PhaseV4 {
 }
 
 impl Saved for Phase {
-    type Form = PhaseV4;
-    fn save(&self) -> PhaseV4 {
+    type Form = PhaseV5;
+    fn save(&self) -> PhaseV5 {
         match *self {
             Phase::Aligning {
                 t0_s,
@@ -554,19 +576,19 @@ impl Saved for Phase {
                 mag,
                 n_acc,
                 n_mag,
-            } => PhaseV4::Aligning {
+            } => PhaseV5::Aligning {
                 t0_s,
                 acc: acc.save(),
                 mag: mag.save(),
                 n_acc,
                 n_mag,
             },
-            Phase::Running => PhaseV4::Running,
+            Phase::Running => PhaseV5::Running,
         }
     }
-    fn load(f: PhaseV4) -> Result<Self, String> {
+    fn load(f: PhaseV5) -> Result<Self, String> {
         Ok(match f {
-            PhaseV4::Aligning {
+            PhaseV5::Aligning {
                 t0_s,
                 acc,
                 mag,
@@ -579,12 +601,12 @@ impl Saved for Phase {
                 n_acc,
                 n_mag,
             },
-            PhaseV4::Running => Phase::Running,
+            PhaseV5::Running => Phase::Running,
         })
     }
 }
 
-saved!(AhrsV4 for AhrsState {
+saved!(AhrsV5 for AhrsState {
     phase: Phase,
     t_s: Option<f64>,
     q_gyro: Quaternion,
@@ -599,16 +621,16 @@ saved!(AhrsV4 for AhrsState {
 });
 
 // The vehicle.
-saved!(GateCountsV4 for GateCounts { accepted: u64, gated: u64, norm_gated: u64, disturbed: u64 });
-saved!(LowpassStateV4 for LowpassState {
+saved!(GateCountsV5 for GateCounts { accepted: u64, gated: u64, norm_gated: u64, disturbed: u64 });
+saved!(LowpassStateV5 for LowpassState {
     t_s: Option<f64>,
     body_frame: Vector3<f64>,
     posterior: Option<Quaternion>,
 });
-saved!(SensorStateV4 for SensorState { lowpass: LowpassState, last_disturbed_t_s: Option<f64> });
-saved!(HeldV4 for HeldSample { t_s: f64, m: Measurement });
-saved!(JumpV4 for JumpCandidate { t_s: f64, count: u32 });
-saved!(VehicleV4 for VehicleSnapshot {
+saved!(SensorStateV5 for SensorState { lowpass: LowpassState, last_disturbed_t_s: Option<f64> });
+saved!(HeldV5 for HeldSample { t_s: f64, m: Measurement });
+saved!(JumpV5 for JumpCandidate { t_s: f64, count: u32 });
+saved!(VehicleV5 for VehicleSnapshot {
     id: String,
     config: VehicleFilterConfig,
     filter: Option<FilterState>,
@@ -632,16 +654,16 @@ saved!(VehicleV4 for VehicleSnapshot {
     gyro_feed: Option<Stream>,
     last_imu_estimate_t: Option<f64>,
 });
-saved!(CountersV4 for SavedCounters {
+saved!(CountersV5 for SavedCounters {
     received: u64,
     processed: u64,
     rejected: u64,
     rejected_by_code: BTreeMap<String, u64>,
 });
 
-/// The whole payload of a format-4 checkpoint.
+/// The whole payload of a format-5 checkpoint.
 #[derive(Serialize, Deserialize)]
-pub struct CheckpointV4 {
-    pub vehicle: VehicleV4,
-    pub counters: CountersV4,
+pub struct CheckpointV5 {
+    pub vehicle: VehicleV5,
+    pub counters: CountersV5,
 }

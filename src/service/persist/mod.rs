@@ -12,7 +12,7 @@ mod format;
 
 use super::vehicle::VehicleState;
 use bincode::Options;
-use format::{CheckpointV4, Saved};
+use format::{CheckpointV5, Saved};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -24,7 +24,9 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// gyro feed and a third stream; filters their gyro error model (`filters::GyroErrors`).
 /// 4: the payload is [`format`]'s own structs, no longer the in-memory object graph (1–3 were bincode
 /// of the core types themselves, which cannot be read without them: refused).
-pub const VERSION: u32 = 4;
+/// 5: a filter may be the SGHQF (a new variant of the filter state) and every filter configuration
+/// holds its sparse-grid level (4 cannot say either: refused).
+pub const VERSION: u32 = 5;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 
@@ -60,7 +62,7 @@ pub fn path_of(dir: &Path, vehicle: &str) -> PathBuf {
 pub fn encode(state: &VehicleState, counters: &SavedCounters) -> Result<Vec<u8>, String> {
     let payload = bincode::DefaultOptions::new()
         .with_fixint_encoding()
-        .serialize(&CheckpointV4 {
+        .serialize(&CheckpointV5 {
             vehicle: state.snapshot().save(),
             counters: counters.save(),
         })
@@ -107,7 +109,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         return Err("CRC mismatch".into());
     }
     // The limit keeps a damaged length field from asking for more memory than the file holds.
-    let c: CheckpointV4 = bincode::DefaultOptions::new()
+    let c: CheckpointV5 = bincode::DefaultOptions::new()
         .with_fixint_encoding()
         .with_limit(len as u64)
         .deserialize(payload)

@@ -318,19 +318,23 @@ fn markdown(study: &StudyResult, unit: AngleUnit, plots: &[PlotOutcome]) -> Stri
         );
         let _ = writeln!(
             md,
-            "| filter | particles | converged | convergence time (s) | steady RMS x/y/z ({u}) | PCRB x/y/z ({u}) | RMS/PCRB x/y/z | ANEES [95% interval] | µs/step |"
+            "| filter | particles / level | converged | convergence time (s) | steady RMS x/y/z ({u}) | PCRB x/y/z ({u}) | RMS/PCRB x/y/z | ANEES [95% interval] | µs/step |"
         );
         let _ = writeln!(md, "|---|--:|--:|--:|--:|--:|--:|--:|--:|");
         let mut any_outside = false;
         for fr in &study.filters {
             let s = &fr.summary;
-            let particles = s
-                .particles
-                .or(fr.particles)
-                .map_or("—".to_string(), |p| p.to_string());
+            let particles = match (s.particles.or(fr.particles), s.level.or(fr.level)) {
+                (Some(p), _) => p.to_string(),
+                (None, Some(l)) => format!("L = {l}"),
+                (None, None) => "—".to_string(),
+            };
             let mut converged = format!("{}/{}", s.converged_runs, s.runs);
             if s.failed_runs > 0 {
                 let _ = write!(converged, " ({} failed)", s.failed_runs);
+            }
+            if s.refused_inputs > 0 {
+                let _ = write!(converged, " ({} inputs refused)", s.refused_inputs);
             }
             let convergence = s.convergence_time_s.map_or("—".to_string(), num);
             let [lo, hi] = s.anees_interval;
@@ -428,6 +432,7 @@ mod tests {
             kind: kind.to_string(),
             fiducial: fiducial.map(str::to_string),
             particles,
+            level: None,
             runs: 3,
             converged_runs: 3,
             convergence_time_s: Some(21.5),
@@ -438,6 +443,7 @@ mod tests {
             anees_interval: [2.26, 3.83],
             us_per_step: 123.4,
             failed_runs: 0,
+            refused_inputs: 0,
         }
     }
 
@@ -484,12 +490,14 @@ mod tests {
                 FilterResult {
                     spec: mekf,
                     particles: None,
+                    level: None,
                     runs: (0..3).map(|j| run(j, 200, 1.0)).collect(),
                     summary: summary("mekf", "mekf", None, None, 3.1),
                 },
                 FilterResult {
                     spec: qpf,
                     particles: Some(500),
+                    level: None,
                     runs: (0..3).map(|j| run(j + 3, 200, 1.5)).collect(),
                     summary: summary("qpf:average", "qpf", Some("average"), Some(500), 6.7),
                 },
@@ -590,18 +598,21 @@ mod tests {
             FilterResult {
                 spec: usque,
                 particles: None,
+                level: None,
                 runs: Vec::new(),
                 summary: s.clone(),
             },
             FilterResult {
                 spec: mekf,
                 particles: None,
+                level: None,
                 runs: vec![nan, RunTrace::default()],
                 summary: summary("mekf", "mekf", None, None, 3.0),
             },
             FilterResult {
                 spec: mekf,
                 particles: None,
+                level: None,
                 runs: vec![RunTrace::default()],
                 summary: summary("mekf", "mekf", None, None, 3.0),
             },

@@ -456,10 +456,10 @@ class AttitudeClient:
 
     def reset(self, vehicle: str, timeout: float | None = 15.0, **fields: Any) -> dict:
         """(Re)initialises or reconfigures ``vehicle``'s filter; returns the reset reply
-        ``{"vehicle", "state", "filter", "fiducial", "particles", "estimate"}``.
+        ``{"vehicle", "state", "filter", "fiducial", "particles", "level", "estimate"}``.
 
-        ``fields`` (all optional): ``filter`` (``"mekf"``, ``"usque"``, ``"qpf"``), ``fiducial``
-        (``"average"``, ``"propagated"``), ``particles``, ``q`` (dict ``{w,x,y,z}`` or ``(w, x, y, z)``),
+        ``fields`` (all optional): ``filter`` (``"mekf"``, ``"usque"``, ``"qpf"``, ``"sghqf"``), ``fiducial``
+        (``"average"``, ``"propagated"``), ``particles`` (qpf), ``level`` (sghqf, 2 to 4), ``q`` (dict ``{w,x,y,z}`` or ``(w, x, y, z)``),
         ``sigma_deg`` (one number or three), ``bias`` (rad/s), ``bias_sigma`` (rad/s, one or three), ``t``
         (s). Without ``q`` the vehicle initialises again from its next usable vector-observation set."""
         req: dict[str, Any] = {}

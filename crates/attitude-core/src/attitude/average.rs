@@ -27,6 +27,12 @@ pub enum AverageError {
     NoConvergence,
     #[error("the largest eigenvalue is not separated from the next (relative gap {relative_gap:e}): the average is undecidable")]
     Undecidable { relative_gap: f64 },
+    #[error("the signed weights sum to {total}, not a positive number")]
+    NonPositiveTotal { total: f64 },
+    #[error("the weighted matrix has eigenvalue {smallest:e}, beyond half its eigen-gap {gap:e}: the quadrature error exceeds what decides the average")]
+    Indefinite { smallest: f64, gap: f64 },
+    #[error("the average lies {angle_rad} rad from the centre, beyond the farthest point ({extent_rad} rad): the rule no longer resolves the spread")]
+    OutsideCloud { angle_rad: f64, extent_rad: f64 },
 }
 
 /// A decided average with the diagnostics that say how well it is defined.
@@ -240,4 +246,99 @@ fn largest_eigenvector(
         gap,
         eigenvalues: lambda.map(|l| l * total_weight),
     })
+}
+
+/// The weighted average when some weights are negative (a sparse-grid quadrature rule's;
+/// docs/algorithms.md §4), about the rule's central point `centre`.
+///
+/// `M = Σ wᵢ qᵢ qᵢᵀ` with `Σ wᵢ > 0`. By the trace identity `Σ wᵢ ‖A(q) − A(qᵢ)‖²_F = 8 (Σ wᵢ − qᵀ M q)`
+/// whatever the signs, so the unit eigenvector of the largest *algebraic* eigenvalue still minimises
+/// the weighted attitude cost; but that cost is no longer a sum of non-negative terms, and `M` is a
+/// quadrature estimate of the true second moment `E[q qᵀ]` (positive semi-definite). The average is
+/// taken as the right answer only when nothing shows the estimate too poor to decide it:
+///
+/// * `λ₁` separated from `λ₂` (as for [`weighted_average`]): else [`AverageError::Undecidable`];
+/// * no negative eigenvalue beyond half the gap: `E[q qᵀ]` has none, so by Weyl's inequality the
+///   quadrature error is at least `−λ₄`, and by Davis–Kahan an error of half the gap can turn the top
+///   eigenvector anywhere: else [`AverageError::Indefinite`];
+/// * the average no farther from `centre` (in angle on S³) than the farthest point: for a spread the
+///   rule no longer resolves, the top eigenvector jumps from the centre to a direction no point is
+///   near (measured: beyond ≈ 70° of isotropic spread at `L = 2`): else [`AverageError::OutsideCloud`].
+///
+/// The sign is chosen with `q̄ᵀ centre ≥ 0`.
+pub fn signed_average(
+    quaternions: &[Quaternion],
+    weights: &[f64],
+    centre: &Quaternion,
+) -> Result<QuaternionAverage, AverageError> {
+    if quaternions.is_empty() {
+        return Err(AverageError::Empty);
+    }
+    let mut m = Matrix4::zeros();
+    let mut total = 0.0;
+    let mut extent: f64 = 0.0;
+    for (index, (q, &w)) in quaternions.iter().zip(weights).enumerate() {
+        if !w.is_finite() {
+            return Err(AverageError::InvalidWeight { index, weight: w });
+        }
+        if !q.is_finite() {
+            return Err(AverageError::NonFiniteQuaternion { index });
+        }
+        let v = q.to_vector4();
+        m += (v * v.transpose()) * w;
+        total += w;
+        extent = extent.max(angle_on_sphere(q, centre));
+    }
+    if quaternions.len() != weights.len() {
+        let index = quaternions.len().min(weights.len());
+        return Err(AverageError::InvalidWeight {
+            index,
+            weight: f64::NAN,
+        });
+    }
+    if !(total > 0.0) {
+        return Err(AverageError::NonPositiveTotal { total });
+    }
+    let (v, lambda) = top_eigenpair(&(m / total))?;
+    let gap = lambda[0] - lambda[1];
+    let relative_gap = if lambda[0] > 0.0 {
+        gap / lambda[0]
+    } else {
+        0.0
+    };
+    if relative_gap <= UNDECIDABLE_RELATIVE_GAP {
+        return Err(AverageError::Undecidable { relative_gap });
+    }
+    if -lambda[3] >= 0.5 * gap {
+        return Err(AverageError::Indefinite {
+            smallest: lambda[3],
+            gap,
+        });
+    }
+    let mut q = Quaternion::from_vector4(&v);
+    if q.dot(centre) < 0.0 {
+        q = q.negated();
+    }
+    let angle_rad = angle_on_sphere(&q, centre);
+    // (A little slack: for a cloud of one point the average is that point to rounding.)
+    if angle_rad > extent + 1e-9 {
+        return Err(AverageError::OutsideCloud {
+            angle_rad,
+            extent_rad: extent,
+        });
+    }
+    Ok(QuaternionAverage {
+        q,
+        concentration: lambda[0],
+        gap,
+        eigenvalues: lambda.map(|l| l * total),
+    })
+}
+
+/// The angle between two unit quaternions as points of S³ up to sign, `acos |p·q|` (half the
+/// rotation angle between them), as `2 asin(‖p ∓ q‖/2)`: accurate for small angles, where `acos` is not.
+fn angle_on_sphere(p: &Quaternion, q: &Quaternion) -> f64 {
+    let q = if p.dot(q) < 0.0 { q.negated() } else { *q };
+    let d = p.to_vector4() - q.to_vector4();
+    2.0 * (0.5 * d.norm()).min(1.0).asin()
 }

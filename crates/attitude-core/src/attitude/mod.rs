@@ -6,7 +6,9 @@ pub mod quaternion;
 pub mod rodrigues;
 pub mod wahba;
 
-pub use average::{weighted_average, AverageAccumulator, AverageError, QuaternionAverage};
+pub use average::{
+    signed_average, weighted_average, AverageAccumulator, AverageError, QuaternionAverage,
+};
 pub use quaternion::{skew, Quaternion};
 pub use rodrigues::Grp;
 pub use wahba::{q_method, WahbaError, WahbaSolution};

@@ -8,6 +8,7 @@
 
 use super::mekf::Mekf;
 use super::qpf::{Cloud, Qpf, QpfOptions};
+use super::sghqf::{rule_of, Points, Sghqf};
 use super::usque::{SigmaPoints, Usque, UsqueOptions};
 use super::{
     is_spd, AttitudeFilter, Diagnostics, Driver, Fiducial, FilterCore, FilterError, GapModel,
@@ -55,6 +56,21 @@ pub struct UsqueState {
     pub diagnostics: Diagnostics,
 }
 
+/// The SGHQF: as USQUE's, with the rule's level (its points and weights follow from it) and the
+/// propagated points awaiting an update (one per point of the rule).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SghqfState {
+    pub gyro: GyroNoise,
+    pub gyro_errors: GyroErrors,
+    pub level: u8,
+    pub fiducial: Fiducial,
+    pub q_ref: Quaternion,
+    pub x: Vector6<f64>,
+    pub p: Matrix6<f64>,
+    pub points: Option<Points>,
+    pub diagnostics: Diagnostics,
+}
+
 /// The QPF: the particle cloud, the estimate kept beside it and the generator's state (a restored
 /// filter draws exactly the numbers the saved one would have drawn).
 #[derive(Clone, Debug, PartialEq)]
@@ -81,6 +97,7 @@ pub enum FilterState {
     Mekf(DriverState, MekfState),
     Usque(DriverState, UsqueState),
     Qpf(DriverState, QpfState),
+    Sghqf(DriverState, SghqfState),
 }
 
 fn invalid(what: impl Into<String>) -> FilterError {
@@ -214,6 +231,31 @@ impl FilterState {
                 spd(&s.p_hat, "QPF covariance")?;
                 s.cloud.check().map_err(invalid)?;
                 Box::new(Driver::from_state(Qpf::from_state(s)?, d)?)
+            }
+            FilterState::Sghqf(d, s) => {
+                common(&s.gyro, &s.gyro_errors)?;
+                let rule = rule_of(s.level).map_err(|e| invalid(e.to_string()))?;
+                unit_quaternion(&s.q_ref, "SGHQF chart centre")?;
+                finite(s.x.iter().copied(), "SGHQF state")?;
+                spd(&s.p, "SGHQF covariance")?;
+                if let Some(pts) = &s.points {
+                    if pts.q.len() != rule.len() || pts.chi.len() != rule.len() {
+                        return Err(invalid(format!(
+                            "SGHQF points: {} quaternions and {} local states for a rule of {}",
+                            pts.q.len(),
+                            pts.chi.len(),
+                            rule.len()
+                        )));
+                    }
+                    for q in &pts.q {
+                        unit_quaternion(q, "SGHQF point")?;
+                    }
+                    finite(
+                        pts.chi.iter().flat_map(|c| c.iter().copied()),
+                        "SGHQF point",
+                    )?;
+                }
+                Box::new(Driver::from_state(Sghqf::from_state(s)?, d)?)
             }
         })
     }

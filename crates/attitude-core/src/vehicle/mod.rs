@@ -265,7 +265,7 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
 fn healthy(e: &Estimate, kind: FilterKind) -> bool {
     let pd = match kind {
         FilterKind::Qpf => is_spd(&e.covariance),
-        FilterKind::Mekf | FilterKind::Usque => plausibly_spd(&e.covariance),
+        FilterKind::Mekf | FilterKind::Usque | FilterKind::Sghqf => plausibly_spd(&e.covariance),
     };
     // (A norm within 1e-6 of 1 is finite: a NaN or an infinite component fails the test. A bias is
     // finite when 0·b is 0 for each component.)
@@ -317,6 +317,11 @@ impl VehicleState {
         (self.config.filter.spec.kind == FilterKind::Qpf).then_some(self.config.filter.particles)
     }
 
+    /// The sparse-grid level of an SGHQF.
+    pub fn level(&self) -> Option<u8> {
+        (self.config.filter.spec.kind == FilterKind::Sghqf).then_some(self.config.filter.level)
+    }
+
     pub fn is_tracking(&self) -> bool {
         matches!(self.slot, Slot::Tracking(_))
     }
@@ -358,6 +363,7 @@ impl VehicleState {
             estimate,
             spec: self.spec(),
             particles: self.particles(),
+            level: self.level(),
             seq: self.seq,
             gate: self.gate.clone(),
             consecutive_gated: self.consecutive_gated,

@@ -46,6 +46,8 @@ pub struct Published {
     pub spec: FilterSpec,
     /// The particle count of a particle filter.
     pub particles: Option<usize>,
+    /// The sparse-grid level of an SGHQF.
+    pub level: Option<u8>,
     /// Estimates published for this vehicle so far (1 for the first).
     pub seq: u64,
     /// Gate counts by sensor name.
@@ -72,5 +74,6 @@ pub struct ResetOutcome {
     pub tracking: bool,
     pub spec: FilterSpec,
     pub particles: Option<usize>,
+    pub level: Option<u8>,
     pub estimate: Option<Published>,
 }

@@ -8,6 +8,7 @@ use super::{
     STREAMS,
 };
 use crate::attitude::Quaternion;
+use crate::filters::sghqf::LEVELS;
 use crate::filters::{is_spd, Fiducial, FilterKind, FilterSpec, InitialState};
 use crate::rejection::{RejectCode, Rejection};
 use crate::sensors::GyroSample;
@@ -23,6 +24,8 @@ pub struct ResetRequest {
     pub fiducial: Option<Fiducial>,
     /// In `2..=MAX_PARTICLES`.
     pub particles: Option<usize>,
+    /// The SGHQF's sparse-grid level, in [`crate::filters::sghqf::LEVELS`].
+    pub level: Option<u8>,
     /// The attitude; absent: initialise from the next vector set (or the IMU's alignment).
     pub q: Option<Quaternion>,
     /// Attitude 1σ per axis, rad, in (0, 2π]; default [`DEFAULT_RESET_SIGMA_DEG`].
@@ -89,6 +92,9 @@ impl ResetRequest {
         if let Some(n) = self.particles {
             config.filter.particles = n;
         }
+        if let Some(l) = self.level {
+            config.filter.level = l;
+        }
         Ok(config)
     }
 }
@@ -103,6 +109,7 @@ pub struct TakeoverSeed {
     pub covariance: Matrix6<f64>,
     pub spec: FilterSpec,
     pub particles: Option<usize>,
+    pub level: Option<u8>,
     /// Estimates published so far: `seq` continues from it.
     pub seq: u64,
 }
@@ -140,6 +147,11 @@ impl VehicleState {
             if let Some(n) = seed.particles {
                 // (Bounded like a reset's: the estimate arrived over the network.)
                 config.filter.particles = n.clamp(2, MAX_PARTICLES);
+            }
+        }
+        if seed.spec.kind == FilterKind::Sghqf {
+            if let Some(l) = seed.level {
+                config.filter.level = l.clamp(*LEVELS.start(), *LEVELS.end());
             }
         }
         let mut state = VehicleState::new(id, config);
@@ -241,6 +253,7 @@ impl VehicleState {
             tracking: self.is_tracking(),
             spec: self.spec(),
             particles: self.particles(),
+            level: self.level(),
             estimate,
         })
     }
