@@ -13,6 +13,7 @@ mod conventions;
 mod fleet;
 mod imu_models;
 mod mekf;
+mod metrics;
 mod montecarlo_cli;
 mod parsers_prop;
 mod properties;

@@ -12,7 +12,10 @@
 //! workers), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the queryables).
 
 mod fleet;
+mod metrics;
 mod queries;
+
+pub use metrics::METRICS_ENCODING;
 
 use super::config::ServiceConfig;
 use super::fleet::{owner, FleetMode};
@@ -67,6 +70,8 @@ pub struct Counters {
     pub skipped: AtomicU64,
     pub written: AtomicU64,
     pub write_failed: AtomicU64,
+    /// Filter step times by filter kind (`P/@/metrics`).
+    steps: metrics::StepTimes,
 }
 
 impl Counters {
@@ -679,14 +684,17 @@ impl Engine {
                 match input {
                     Input::Measurement(m) => {
                         let stream = super::vehicle::stream_of(&m);
-                        if let Err(r) = state.on_measurement(m, now, policy, &mut events) {
+                        let result = self.timed(&mut state, &mut events, |s, e| {
+                            s.on_measurement(m, now, policy, e)
+                        });
+                        if let Err(r) = result {
                             self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
                         self.handle(v, &state, &mut events);
                     }
                     Input::Tick => {
                         v.tick_queued.store(false, Ordering::Release);
-                        state.on_tick(now, policy, &mut events);
+                        self.timed(&mut state, &mut events, |s, e| s.on_tick(now, policy, e));
                         self.handle(v, &state, &mut events);
                     }
                     Input::Reset(req, reply) => {
