@@ -3,6 +3,7 @@
 
 use super::config::{load_config, zenoh_config};
 use super::runtime::init_logging;
+use crate::service::ServiceError;
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -67,7 +68,10 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
     }
     let opened = crate::service::session::open(zc)
         .await
-        .map_err(|e| anyhow::anyhow!("cannot open the zenoh session: {e}"))?;
+        .map_err(|e| match e {
+            ServiceError::Http(_) => anyhow::anyhow!("{e}"),
+            _ => anyhow::anyhow!("cannot open the zenoh session: {e}"),
+        })?;
     crate::service::run(
         opened.session.clone(),
         file.service,

@@ -34,6 +34,8 @@ use zenoh::Wait;
 pub enum ServiceError {
     #[error("zenoh: {0}")]
     Zenoh(String),
+    #[error("HTTP (zenoh's REST plugin): {0}")]
+    Http(String),
     #[error("state directory: {0}")]
     State(#[from] persist::CheckpointError),
 }

@@ -46,12 +46,11 @@ pub async fn open(config: zenoh::Config) -> Result<ServiceSession, ServiceError>
         });
     };
     let rest: zenoh_plugin_rest::Config = serde_json::from_value(rest)
-        .map_err(|e| ServiceError::Zenoh(format!("plugins/{REST}: {e}")))?;
+        .map_err(|e| ServiceError::Http(format!("plugins/{REST} (--rest-http-port): {e}")))?;
     // The plugin reports a port it cannot listen on only in a log line (it starts its server in the
     // background): try it first, for a clear error at start.
-    std::net::TcpListener::bind(rest.addr).map_err(|e| {
-        ServiceError::Zenoh(format!("cannot listen for HTTP on {}: {e}", rest.addr))
-    })?;
+    std::net::TcpListener::bind(rest.addr)
+        .map_err(|e| ServiceError::Http(format!("cannot listen on {}: {e}", rest.addr)))?;
     let subscribers = config.aggregation().subscribers().clone();
     let publishers = config.aggregation().publishers().clone();
     let mut plugins = PluginsManager::static_plugins_only();
@@ -64,8 +63,8 @@ pub async fn open(config: zenoh::Config) -> Result<ServiceSession, ServiceError>
         .map_err(zerr)?;
     if runtime.plugins_manager().started_plugin(REST).is_none() {
         let _ = runtime.close().await;
-        return Err(ServiceError::Zenoh(format!(
-            "zenoh's REST plugin did not start on {} (see the log)",
+        return Err(ServiceError::Http(format!(
+            "the plugin did not start on {} (see the log)",
             rest.addr
         )));
     }

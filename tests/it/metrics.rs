@@ -443,7 +443,11 @@ async fn a_taken_http_port_is_an_error() {
     zc.insert_json5("plugins/rest/http_port", &format!("\"127.0.0.1:{port}\""))
         .unwrap();
     let e = session::open(zc).await.err().expect("an error");
-    assert!(e.to_string().contains("cannot listen for HTTP"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("HTTP (zenoh's REST plugin): cannot listen on"),
+        "{e}"
+    );
 }
 
 /// `# TYPE` lines: family name → type.
@@ -501,4 +505,25 @@ fn the_metrics_families_are_those_of_the_contract() {
         }
     }
     assert_eq!(table, written, "the table of proto/README.md");
+}
+
+/// `serve --rest-http-port` with something that is not a port: the command fails at once and says why.
+#[test]
+fn serve_refuses_a_bad_rest_http_port() {
+    let out = crate::common::service_bin()
+        .args([
+            "serve",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--rest-http-port",
+            "eighty",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("plugins/rest (--rest-http-port): invalid port"),
+        "{stderr}"
+    );
 }
