@@ -28,6 +28,7 @@ PACKAGES=(
   "foxglove-sdk==0.30.3"
   "websockets==17.4"
   "protobuf==7.36.2"
+  "prometheus-client==0.26.0"
 )
 
 if [[ ! -x "$PY" ]]; then
