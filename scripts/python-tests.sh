@@ -32,6 +32,7 @@ PACKAGES=(
   # library, a source package that builds in seconds).
   "chaospy==4.3.21"
   "numpoly==1.3.9"
+  "prometheus-client==0.26.0"
 )
 
 if [[ ! -x "$PY" ]]; then

@@ -3,6 +3,7 @@
 
 use super::config::{load_config, zenoh_config};
 use super::runtime::init_logging;
+use crate::service::ServiceError;
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -38,6 +39,11 @@ pub struct ServeArgs {
     /// (`service.fleet.vehicles`; default `*`): static sharding.
     #[arg(long, value_name = "PATTERN")]
     vehicles: Option<String>,
+    /// Serve HTTP with zenoh's REST plugin, run inside the service, on PORT (every interface) or
+    /// IP:PORT, e.g. `127.0.0.1:8000`: `GET /attitude/sc1/attitude`, `GET /attitude/@/metrics?_raw=true`
+    /// (Prometheus). Sets the zenoh configuration's `plugins/rest/http_port`. Default: no HTTP.
+    #[arg(long, value_name = "PORT")]
+    rest_http_port: Option<String>,
 }
 
 /// `serve`: runs the service until `shutdown` is cancelled, then lets it wind down.
@@ -55,10 +61,23 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
         args.vehicles,
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
-    let session = zenoh::open(zc)
+    let mut zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
+    if let Some(port) = args.rest_http_port {
+        zc.insert_json5("plugins/rest/http_port", &serde_json::to_string(&port)?)
+            .map_err(|e| anyhow::anyhow!("--rest-http-port: {e}"))?;
+    }
+    let opened = crate::service::session::open(zc)
         .await
-        .map_err(|e| anyhow::anyhow!("cannot open the zenoh session: {e}"))?;
-    crate::service::run(session, file.service, shutdown.cancelled_owned()).await?;
+        .map_err(|e| match e {
+            ServiceError::Http(_) => anyhow::anyhow!("{e}"),
+            _ => anyhow::anyhow!("cannot open the zenoh session: {e}"),
+        })?;
+    crate::service::run(
+        opened.session.clone(),
+        file.service,
+        shutdown.cancelled_owned(),
+    )
+    .await?;
+    opened.close().await?;
     Ok(())
 }

@@ -120,6 +120,17 @@ impl Keys {
         format!("{}/@/instance/{instance}/vehicles", self.prefix)
     }
 
+    /// `P/@/instance/<instance>/metrics`: one instance's metrics (what Prometheus scrapes in a fleet,
+    /// where every instance answers `P/@/metrics` on the same key).
+    pub fn instance_metrics(&self, instance: &str) -> String {
+        format!("{}/@/instance/{instance}/metrics", self.prefix)
+    }
+
+    /// `P/@/metrics`: OpenMetrics text.
+    pub fn metrics(&self) -> String {
+        format!("{}/@/metrics", self.prefix)
+    }
+
     /// `P/@/vehicles`.
     pub fn vehicles(&self) -> String {
         format!("{}/@/vehicles", self.prefix)
@@ -175,6 +186,11 @@ mod tests {
         assert_eq!(
             k.instance_health("i1"),
             "mission-a/attitude/@/instance/i1/health"
+        );
+        assert_eq!(k.metrics(), "mission-a/attitude/@/metrics");
+        assert_eq!(
+            k.instance_metrics("i1"),
+            "mission-a/attitude/@/instance/i1/metrics"
         );
     }
 }

@@ -9,12 +9,13 @@ pub mod engine;
 pub mod fleet;
 pub mod keys;
 pub mod persist;
+pub mod session;
 /// One vehicle (the state machine of the numeric core).
 pub use attitude_core::vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use config::ServiceConfig;
-use engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink};
+use engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink, METRICS_ENCODING};
 use keys::{Keys, Leaf};
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -34,6 +35,8 @@ use zenoh::Wait;
 pub enum ServiceError {
     #[error("zenoh: {0}")]
     Zenoh(String),
+    #[error("HTTP (zenoh's REST plugin): {0}")]
+    Http(String),
     #[error("state directory: {0}")]
     State(#[from] persist::CheckpointError),
 }
@@ -156,6 +159,14 @@ pub async fn run(
         .declare_queryable(keys.instance_vehicles(&instance))
         .await
         .map_err(zerr)?;
+    let q_metrics = session
+        .declare_queryable(keys.metrics())
+        .await
+        .map_err(zerr)?;
+    let q_instance_metrics = session
+        .declare_queryable(keys.instance_metrics(&instance))
+        .await
+        .map_err(zerr)?;
     let membership = if dynamic {
         Some(join_fleet(&session, &engine, &threads.members).await?)
     } else {
@@ -196,6 +207,12 @@ pub async fn run(
             Ok(q) = q_instance_health.recv_async() => {
                 health(&engine, &q, &keys.instance_health(&instance)).await
             }
+            Ok(q) = q_metrics.recv_async() => {
+                metrics(&engine, threads.ingest.len(), &q, &keys.metrics()).await
+            }
+            Ok(q) = q_instance_metrics.recv_async() => {
+                metrics(&engine, threads.ingest.len(), &q, &keys.instance_metrics(&instance)).await
+            }
         }
     }
     tracing::info!("shutting down");
@@ -217,6 +234,8 @@ pub async fn run(
         q_health,
         q_instance_health,
         q_instance_vehicles,
+        q_metrics,
+        q_instance_metrics,
     ] {
         let _ = q.undeclare().await;
     }
@@ -403,6 +422,22 @@ async fn vehicles(engine: &Engine, q: &Query, key: &str) {
 async fn health(engine: &Engine, q: &Query, key: &str) {
     engine.counters.queries.fetch_add(1, Ordering::Relaxed);
     reply(q, key, json(&engine.health())).await;
+}
+
+/// `P/@/metrics`: encoded off the async runtime's threads (it walks every vehicle).
+async fn metrics(engine: &Arc<Engine>, ingest_depth: usize, q: &Query, key: &str) {
+    engine.counters.queries.fetch_add(1, Ordering::Relaxed);
+    let e = engine.clone();
+    let text = tokio::task::spawn_blocking(move || e.metrics_text(ingest_depth))
+        .await
+        .unwrap_or_default();
+    if let Err(e) = q
+        .reply(key, text)
+        .encoding(Encoding::from(METRICS_ENCODING))
+        .await
+    {
+        tracing::warn!(key, error = %e, "reply failed");
+    }
 }
 
 fn json<T: Serialize + ?Sized>(value: &T) -> Vec<u8> {

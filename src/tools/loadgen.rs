@@ -267,6 +267,7 @@ pub async fn probe(
         let payload = serde_json::to_vec(&star_set(t, 0)).unwrap_or_default();
         session
             .put(keys.vehicle(&vehicle, Leaf::Vectors), payload)
+            .encoding(Encoding::APPLICATION_JSON)
             .await?;
         t += 1.0;
         tokio::time::sleep(Duration::from_millis(100)).await;

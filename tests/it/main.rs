@@ -14,6 +14,7 @@ mod fleet;
 mod imu_models;
 mod load;
 mod mekf;
+mod metrics;
 mod montecarlo_cli;
 mod parsers_prop;
 mod properties;

@@ -77,9 +77,15 @@ def wait_until(predicate: Callable[[], bool], timeout: float, what: str, interva
 
 
 class ServiceProcess:
-    """`attitude-service serve --config <tmp> --listen tcp/127.0.0.1:<free port>`."""
+    """`attitude-service serve --config <tmp> --listen tcp/127.0.0.1:<free port> [args]`."""
 
-    def __init__(self, service_config: dict | None = None, prefix: str = PREFIX, workdir: str | None = None):
+    def __init__(
+        self,
+        service_config: dict | None = None,
+        prefix: str = PREFIX,
+        workdir: str | None = None,
+        args: list[str] | None = None,
+    ):
         if not BIN.exists():
             pytest.fail(f"{BIN} does not exist: build it (cargo build --release) or run scripts/python-tests.sh")
         self.prefix = prefix
@@ -101,7 +107,7 @@ class ServiceProcess:
         env = dict(os.environ)
         env.setdefault("RUST_LOG", "warn")
         self.proc = subprocess.Popen(
-            [str(BIN), "serve", "--config", str(self.config_path), "--listen", self.endpoint],
+            [str(BIN), "serve", "--config", str(self.config_path), "--listen", self.endpoint, *(args or [])],
             stdout=self._log,
             stderr=subprocess.STDOUT,
             env=env,

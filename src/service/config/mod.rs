@@ -56,6 +56,19 @@ pub struct Persistence {
     pub checkpoint_interval_s: f64,
 }
 
+/// `P/@/metrics`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetricsConfig {
+    /// Vehicles with series of their own (the first by id); 0: none. Bounds the series count.
+    pub max_vehicles: usize,
+}
+
+impl Default for MetricsConfig {
+    fn default() -> Self {
+        MetricsConfig { max_vehicles: 1000 }
+    }
+}
+
 /// The validated `service` section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ServiceConfig {
@@ -69,6 +82,7 @@ pub struct ServiceConfig {
     pub policy: Policy,
     pub persistence: Persistence,
     pub fleet: FleetConfig,
+    pub metrics: MetricsConfig,
 }
 
 impl ServiceConfig {
@@ -451,6 +465,9 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         policy,
         persistence,
         fleet,
+        metrics: MetricsConfig {
+            max_vehicles: raw.metrics.max_vehicles,
+        },
     })
 }
 

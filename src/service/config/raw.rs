@@ -27,6 +27,7 @@ pub(super) struct RawService {
     pub(super) health: RawHealth,
     pub(super) persistence: RawPersistence,
     pub(super) fleet: RawFleet,
+    pub(super) metrics: RawMetrics,
 }
 
 impl Default for RawService {
@@ -44,6 +45,21 @@ impl Default for RawService {
             health: RawHealth::default(),
             persistence: RawPersistence::default(),
             fleet: RawFleet::default(),
+            metrics: RawMetrics::default(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(super) struct RawMetrics {
+    pub(super) max_vehicles: usize,
+}
+
+impl Default for RawMetrics {
+    fn default() -> Self {
+        RawMetrics {
+            max_vehicles: MetricsConfig::default().max_vehicles,
         }
     }
 }

@@ -15,9 +15,11 @@
 
 mod dispatch;
 mod fleet;
+mod metrics;
 mod output;
 mod queries;
 
+pub use metrics::METRICS_ENCODING;
 pub use output::{EstimateOutlet, Outlets, Sink};
 
 use super::config::ServiceConfig;
@@ -71,6 +73,8 @@ pub struct Counters {
     pub skipped: AtomicU64,
     pub written: AtomicU64,
     pub write_failed: AtomicU64,
+    /// Filter step times by filter kind (`P/@/metrics`).
+    steps: metrics::StepTimes,
 }
 
 impl Counters {
@@ -598,14 +602,17 @@ impl Engine {
                 match input {
                     Input::Measurement(m, now) => {
                         let stream = super::vehicle::stream_of(&m);
-                        if let Err(r) = state.on_measurement(m, now, policy, events) {
+                        let result = self.timed(&mut state, events, |s, e| {
+                            s.on_measurement(m, now, policy, e)
+                        });
+                        if let Err(r) = result {
                             self.reject(&v.id, &self.stream_key(&v.id, stream), &r);
                         }
                         self.handle(v, &state, events);
                     }
                     Input::Tick(now) => {
                         v.tick_queued.store(false, Ordering::Release);
-                        state.on_tick(now, policy, events);
+                        self.timed(&mut state, events, |s, e| s.on_tick(now, policy, e));
                         self.handle(v, &state, events);
                     }
                     Input::Reset(req, reply) => {

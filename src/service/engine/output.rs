@@ -3,7 +3,7 @@
 //! each estimate and built into a message only when asked.
 
 use super::*;
-use crate::filters::FilterSpec;
+use crate::filters::{FilterKind, FilterSpec};
 use std::sync::OnceLock;
 
 /// Where the engine's outputs other than estimates go (rejections): `(key, JSON payload)`. The
@@ -89,6 +89,19 @@ impl Info {
         if *s != spec {
             *s = spec;
         }
+    }
+
+    pub(super) fn kind(&self) -> FilterKind {
+        self.spec.lock().unwrap_or_else(|e| e.into_inner()).kind
+    }
+
+    pub(super) fn is_tracking(&self) -> bool {
+        self.tracking.load(Ordering::Relaxed)
+    }
+
+    /// The seq of the vehicle's last estimate.
+    pub(super) fn estimates(&self) -> u64 {
+        self.estimates.load(Ordering::Relaxed)
     }
 
     /// The vehicle's row; `Vehicle::info` fills in the counters.

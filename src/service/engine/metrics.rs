@@ -1,0 +1,422 @@
+//! `P/@/metrics`: the engine's counters, gauges and step-time histograms as OpenMetrics text, written
+//! by prometheus-client's encoder. A scrape reads the same atomics and snapshots as `P/@/health` (no
+//! filter is touched, no lock is held longer than one vehicle's inbox length); only the step-time
+//! histograms are kept for it, filled by the workers.
+
+use super::*;
+use crate::filters::FilterKind;
+use prometheus_client::collector::Collector;
+use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric};
+use prometheus_client::metrics::counter::ConstCounter;
+use prometheus_client::metrics::gauge::ConstGauge;
+use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
+use prometheus_client::metrics::info::Info;
+use prometheus_client::metrics::MetricType;
+use prometheus_client::registry::{Registry, Unit};
+use std::fmt;
+use std::time::Duration;
+
+/// The zenoh encoding of a `P/@/metrics` reply, which zenoh's REST plugin sends as the HTTP
+/// Content-Type: what Prometheus needs to parse the text as OpenMetrics (`# EOF`, `_total`, units).
+pub const METRICS_ENCODING: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
+
+/// Filter step times, one histogram per filter kind (labelled `filter`).
+pub struct StepTimes([Histogram; 4]);
+
+impl Default for StepTimes {
+    fn default() -> Self {
+        // 1 µs to 1 s by factors of 2: an MEKF propagation (~1 µs) to a particle filter's update
+        // with many particles.
+        StepTimes(std::array::from_fn(|_| {
+            Histogram::new(exponential_buckets(1e-6, 2.0, 21))
+        }))
+    }
+}
+
+/// The filter kinds in the order of [`StepTimes`]; the match in `StepTimes::of` keeps it complete.
+const KINDS: [FilterKind; 4] = [
+    FilterKind::Mekf,
+    FilterKind::Usque,
+    FilterKind::Qpf,
+    FilterKind::Sghqf,
+];
+
+impl StepTimes {
+    fn of(&self, kind: FilterKind) -> &Histogram {
+        &self.0[match kind {
+            FilterKind::Mekf => 0,
+            FilterKind::Usque => 1,
+            FilterKind::Qpf => 2,
+            FilterKind::Sghqf => 3,
+        }]
+    }
+
+    /// Records one input's pass through its vehicle (`elapsed`, on a worker) as one observation per
+    /// sample it let through to the filter (`Event::Processed`), each an equal share: the count then
+    /// matches `processed`, the sum is the time spent. An input the reorder window only held records
+    /// nothing.
+    fn observe(&self, kind: FilterKind, elapsed: Duration, events: &[Event]) {
+        let n = events
+            .iter()
+            .filter(|e| matches!(e, Event::Processed(_)))
+            .count();
+        if n > 0 {
+            let h = self.of(kind);
+            let share = elapsed.as_secs_f64() / n as f64;
+            for _ in 0..n {
+                h.observe(share);
+            }
+        }
+    }
+}
+
+impl Engine {
+    /// Runs one input through its vehicle (`f`, on a worker), timed for `attitude_step_seconds`.
+    pub(super) fn timed<T>(
+        &self,
+        state: &mut VehicleState,
+        events: &mut Vec<Event>,
+        f: impl FnOnce(&mut VehicleState, &mut Vec<Event>) -> T,
+    ) -> T {
+        let started = Instant::now();
+        let out = f(state, events);
+        let kind = state.spec().kind;
+        self.counters.steps.observe(kind, started.elapsed(), events);
+        out
+    }
+
+    /// The metrics as OpenMetrics text. `ingest_depth`: raw samples waiting in the ingest channel
+    /// (the service owns its sender).
+    pub fn metrics_text(self: &Arc<Self>, ingest_depth: usize) -> String {
+        let mut registry = Registry::default();
+        registry.register_collector(Box::new(Scrape {
+            engine: self.clone(),
+            ingest_depth,
+        }));
+        let mut out = String::new();
+        // (Writing into a String cannot fail; a collector's error would leave the text partial.)
+        if let Err(e) = prometheus_client::encoding::text::encode(&mut out, &registry) {
+            tracing::error!(error = %e, "cannot encode the metrics");
+        }
+        out
+    }
+}
+
+/// One scrape of an engine.
+struct Scrape {
+    engine: Arc<Engine>,
+    ingest_depth: usize,
+}
+
+impl fmt::Debug for Scrape {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("Scrape")
+    }
+}
+
+fn counter(e: &mut DescriptorEncoder, name: &str, help: &str, v: u64) -> fmt::Result {
+    ConstCounter::new(v).encode(e.encode_descriptor(name, help, None, MetricType::Counter)?)
+}
+
+fn gauge(e: &mut DescriptorEncoder, name: &str, help: &str, v: i64) -> fmt::Result {
+    ConstGauge::new(v).encode(e.encode_descriptor(name, help, None, MetricType::Gauge)?)
+}
+
+/// A metric family: one series per label set.
+fn family<L: EncodeLabelSet, M: EncodeMetric>(
+    e: &mut DescriptorEncoder,
+    name: &str,
+    help: &str,
+    unit: Option<&Unit>,
+    rows: impl IntoIterator<Item = (L, M)>,
+) -> fmt::Result {
+    let first = rows.into_iter().collect::<Vec<_>>();
+    let Some((_, m)) = first.first() else {
+        return Ok(());
+    };
+    let mut family = e.encode_descriptor(name, help, unit, m.metric_type())?;
+    for (labels, m) in &first {
+        m.encode(family.encode_family(labels)?)?;
+    }
+    Ok(())
+}
+
+fn load(a: &AtomicU64) -> u64 {
+    a.load(Ordering::Relaxed)
+}
+
+/// Gauges are signed in OpenMetrics; our counts never come near `i64::MAX`.
+fn signed(n: usize) -> i64 {
+    i64::try_from(n).unwrap_or(i64::MAX)
+}
+
+impl Collector for Scrape {
+    fn encode(&self, mut e: DescriptorEncoder) -> fmt::Result {
+        let engine = &self.engine;
+        let c = &engine.counters;
+        let vehicles = engine.vehicles();
+        let config = &engine.config;
+
+        Info::new([
+            ("version", env!("CARGO_PKG_VERSION")),
+            ("fleet_instance", config.fleet.instance.as_str()),
+            ("fleet_group", config.fleet.group.as_str()),
+            ("fleet_mode", config.fleet.mode.as_str()),
+        ])
+        .encode(e.encode_descriptor(
+            "attitude_service",
+            "the service: its version and fleet identity",
+            None,
+            MetricType::Info,
+        )?)?;
+        ConstGauge::new(engine.uptime_s()).encode(e.encode_descriptor(
+            "attitude_uptime",
+            "time since the service started",
+            Some(&Unit::Seconds),
+            MetricType::Gauge,
+        )?)?;
+
+        // Service-wide counters (as in P/@/health).
+        counter(
+            &mut e,
+            "attitude_received",
+            "measurement samples received (a batch counts its items; a payload that does not decode counts once)",
+            load(&c.received),
+        )?;
+        counter(
+            &mut e,
+            "attitude_processed",
+            "samples the filters used",
+            load(&c.processed),
+        )?;
+        counter(
+            &mut e,
+            "attitude_estimates_published",
+            "estimates published on P/V/estimate",
+            load(&c.estimates),
+        )?;
+        counter(
+            &mut e,
+            "attitude_queries",
+            "queries received, answered or refused",
+            load(&c.queries),
+        )?;
+        counter(
+            &mut e,
+            "attitude_ingest_overflow",
+            "samples dropped on arrival: the ingest channel was full (no rejection is published)",
+            load(&c.ingest_overflow),
+        )?;
+        // Every code, zeros included, so that a rate over a code that has not happened yet exists.
+        family(
+            &mut e,
+            "attitude_rejected",
+            "refused inputs and requests by code (proto/README.md, Errors)",
+            None,
+            RejectCode::ALL
+                .iter()
+                .zip(&c.rejected)
+                .map(|(code, n)| ([("code", code.as_str())], ConstCounter::new(load(n)))),
+        )?;
+        family(
+            &mut e,
+            "attitude_checkpoints",
+            "checkpoint files: vehicles restored and files skipped at start, files written and failed writes",
+            None,
+            [
+                ("restored", &c.restored),
+                ("skipped", &c.skipped),
+                ("written", &c.written),
+                ("failed", &c.write_failed),
+            ]
+            .map(|(outcome, n)| ([("outcome", outcome)], ConstCounter::new(load(n)))),
+        )?;
+        family(
+            &mut e,
+            "attitude_fleet_moves",
+            "vehicles taken over from and released to other fleet members",
+            None,
+            [
+                ("takeover", &engine.fleet.takeovers),
+                ("released", &engine.fleet.released),
+            ]
+            .map(|(kind, n)| ([("kind", kind)], ConstCounter::new(load(n)))),
+        )?;
+
+        // Gauges: what the service holds now.
+        let mut by_kind: BTreeMap<(&'static str, &'static str), i64> = BTreeMap::new();
+        let mut inbox = Vec::with_capacity(vehicles.len());
+        for v in &vehicles {
+            let kind = v.info.kind().as_str();
+            let state = if v.info.is_tracking() {
+                "tracking"
+            } else {
+                "initializing"
+            };
+            *by_kind.entry((kind, state)).or_default() += 1;
+            inbox.push(v.inbox.lock().unwrap_or_else(|e| e.into_inner()).len());
+        }
+        family(
+            &mut e,
+            "attitude_vehicles",
+            "vehicles known, by filter kind and state",
+            None,
+            by_kind.iter().map(|((kind, state), n)| {
+                ([("filter", *kind), ("state", *state)], ConstGauge::new(*n))
+            }),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_ingest_queue_depth",
+            "raw samples waiting for the dispatcher (the bounded ingest channel)",
+            signed(self.ingest_depth),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_ingest_queue_capacity",
+            "capacity of the ingest channel",
+            signed(INGEST_CAPACITY),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_work_queue_depth",
+            "vehicles scheduled and waiting for a worker",
+            signed(engine.work_tx.len()),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_inbox_depth",
+            "inputs waiting in the vehicles' inboxes, summed",
+            signed(inbox.iter().sum()),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_inbox_depth_max",
+            "inputs waiting in the fullest inbox",
+            signed(inbox.iter().copied().max().unwrap_or(0)),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_held_samples",
+            "samples held in the vehicles' reorder windows, summed",
+            signed(
+                vehicles
+                    .iter()
+                    .map(|v| v.held.load(Ordering::Relaxed))
+                    .sum(),
+            ),
+        )?;
+        gauge(
+            &mut e,
+            "attitude_fleet_members",
+            "live members of this instance's fleet (itself included)",
+            signed(match config.fleet.mode {
+                FleetMode::Single => 1,
+                FleetMode::Dynamic => engine.members().map_or(0, |m| m.len()),
+            }),
+        )?;
+
+        family(
+            &mut e,
+            "attitude_step",
+            "time of one sample through its vehicle's filter, on a worker, by filter kind",
+            Some(&Unit::Seconds),
+            KINDS
+                .iter()
+                .map(|k| ([("filter", k.as_str())], c.steps.of(*k).clone())),
+        )?;
+
+        self.per_vehicle(&mut e, &vehicles, &inbox)
+    }
+}
+
+impl Scrape {
+    /// Per-vehicle series (label `vehicle`) for the first `metrics.max_vehicles` vehicles by id: the
+    /// cap bounds a scrape's size and the series count of a large fleet.
+    fn per_vehicle(
+        &self,
+        e: &mut DescriptorEncoder,
+        vehicles: &[Arc<Vehicle>],
+        inbox: &[usize],
+    ) -> fmt::Result {
+        let cap = self.engine.config.metrics.max_vehicles;
+        let shown = &vehicles[..vehicles.len().min(cap)];
+        gauge(
+            e,
+            "attitude_vehicles_without_series",
+            "vehicles beyond service.metrics.max_vehicles, which have no per-vehicle series",
+            signed(vehicles.len() - shown.len()),
+        )?;
+        let each = |f: &dyn Fn(&Vehicle) -> u64| {
+            shown
+                .iter()
+                .map(move |v| ([("vehicle", v.id.clone())], ConstCounter::new(f(v))))
+                .collect::<Vec<_>>()
+        };
+        family(
+            e,
+            "attitude_vehicle_received",
+            "samples accepted into the vehicle's queue",
+            None,
+            each(&|v| load(&v.received)),
+        )?;
+        family(
+            e,
+            "attitude_vehicle_processed",
+            "samples the vehicle's filter used",
+            None,
+            each(&|v| load(&v.processed)),
+        )?;
+        family(
+            e,
+            "attitude_vehicle_estimates_published",
+            "estimates the vehicle published (the seq of its last one)",
+            None,
+            each(&|v| v.info.estimates()),
+        )?;
+        // Only the codes that occurred: per vehicle and code the zeros would be most of the text.
+        let mut rejected = Vec::new();
+        for v in shown {
+            let codes = v
+                .rejected_by_code
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone();
+            for (code, n) in codes {
+                rejected.push((
+                    [("vehicle", v.id.clone()), ("code", code)],
+                    ConstCounter::new(n),
+                ));
+            }
+        }
+        family(
+            e,
+            "attitude_vehicle_rejected",
+            "the vehicle's refused inputs by code (codes that occurred)",
+            None,
+            rejected,
+        )?;
+        family(
+            e,
+            "attitude_vehicle_inbox_depth",
+            "inputs waiting in the vehicle's inbox",
+            None,
+            shown
+                .iter()
+                .zip(inbox)
+                .map(|(v, n)| ([("vehicle", v.id.clone())], ConstGauge::new(signed(*n)))),
+        )?;
+        family(
+            e,
+            "attitude_vehicle_held_samples",
+            "samples held in the vehicle's reorder window",
+            None,
+            shown.iter().map(|v| {
+                (
+                    [("vehicle", v.id.clone())],
+                    ConstGauge::new(signed(v.held.load(Ordering::Relaxed))),
+                )
+            }),
+        )
+    }
+}
