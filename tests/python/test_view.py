@@ -121,7 +121,10 @@ def run(tmp_path_factory):
         # The protocol does not acknowledge a subscription: reset again until the client has a message of each.
         deadline = time.monotonic() + 20
         while missing := [v for v in VEHICLES if not fox.got(f"/{v}/attitude")]:
-            assert time.monotonic() < deadline, f"no message of {missing} reached the client"
+            assert time.monotonic() < deadline, (
+                f"no message of {missing} reached the client; its channels {sorted(fox.topics())}, "
+                f"its subscriptions {fox.subscriptions}, its errors {fox.errors}; the view's log:\n{view.log()}"
+            )
             for v in missing:
                 client.reset(v, q=(1, 0, 0, 0), t=0.0)
             time.sleep(0.5)
