@@ -263,7 +263,12 @@ async fn metrics_move_with_inputs_and_every_reply_carries_its_encoding() {
         value(&m, "attitude_rejected_total", &[("code", "invalid_json")]),
         Some(1.0)
     );
-    for (filter, n) in [("mekf", 20.0), ("qpf", 20.0), ("usque", 0.0), ("sghqf", 0.0)] {
+    for (filter, n) in [
+        ("mekf", 20.0),
+        ("qpf", 20.0),
+        ("usque", 0.0),
+        ("sghqf", 0.0),
+    ] {
         assert_eq!(
             value(&m, "attitude_step_seconds_count", &[("filter", filter)]),
             Some(n),
