@@ -50,6 +50,10 @@ struct FleetArgs {
     /// Key prefix of the service.
     #[arg(long, default_value = "attitude")]
     prefix: String,
+    /// Send the inputs on their routed keys P/V/<leaf>/<r>, and batched for the routes' standby
+    /// members (what a dynamic fleet needs to scale; a single instance takes them too).
+    #[arg(long)]
+    routed: bool,
 }
 
 #[derive(Args)]
@@ -102,6 +106,7 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
         speed,
         seed: fleet.seed,
         reset: !fleet.no_reset,
+        routed: fleet.routed,
     })
 }
 

@@ -44,6 +44,11 @@ pub struct LoadgenArgs {
     /// 1 s after the run and not counted, has the last ones answered.
     #[arg(long, requires = "imu")]
     capped: bool,
+    /// Send every input on its routed key P/V/<leaf>/<r>, and batched for the routes' standby members
+    /// on P/@/standby/<r>/inputs (a dynamic fleet's inputs then reach a route's owner and standby
+    /// members only; a single instance takes them too). Default: the plain keys P/V/<leaf>.
+    #[arg(long)]
+    routed: bool,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -87,6 +92,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         drain_s: 5.0,
         imu_batch: args.imu.unwrap_or(0),
         covering: args.capped,
+        routed: args.routed,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

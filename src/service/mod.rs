@@ -15,10 +15,10 @@ pub use attitude_core::vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use config::ServiceConfig;
-use engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink, METRICS_ENCODING};
-use keys::{Keys, Leaf};
+use engine::{Engine, EstimateOutlet, Inbound, Outlets, RoutePlan, Sink, METRICS_ENCODING};
+use keys::{route_of, Keys, Leaf, ROUTES};
 use serde::Serialize;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -56,14 +56,21 @@ pub async fn run(
     shutdown: impl Future<Output = ()>,
 ) -> Result<(), ServiceError> {
     let publisher = session.clone();
+    let sink_keys = Keys::new(&config.key_prefix);
     // Outputs are put from the worker threads (plain threads, so the synchronous `wait` is right);
     // `Block` applies back-pressure instead of silently dropping estimates. Not `express`: zenoh then
     // batches the messages that queue up while the link is busy (one write for many under load, the
-    // same latency when idle) instead of a system call per message.
+    // same latency when idle) instead of a system call per message. Rejections are JSON; a fleet
+    // owner's batches of estimates for its standby members are binary (`wire::batch`).
     let sink: Sink = Arc::new(move |key: &str, payload: Vec<u8>| {
+        let encoding = if sink_keys.is_standby(key) {
+            Encoding::APPLICATION_OCTET_STREAM
+        } else {
+            Encoding::APPLICATION_JSON
+        };
         if let Err(e) = publisher
             .put(key, payload)
-            .encoding(Encoding::APPLICATION_JSON)
+            .encoding(encoding)
             .congestion_control(CongestionControl::Block)
             .wait()
         {
@@ -110,22 +117,18 @@ pub async fn run(
         .callback(callback.clone())
         .await
         .map_err(zerr)?;
-    // A dynamic fleet member also follows the others' estimates (where a takeover starts), then
-    // joins: see `join_fleet`.
+    // Routed inputs (`P/V/<leaf>/<r>`): a single instance takes every route; a member of a dynamic
+    // fleet the routes it owns, and the standby batches of those it keeps, as they change (see
+    // `join_fleet`).
     let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
-    let estimates = if dynamic {
-        Some(
-            session
-                .declare_subscriber(keys.all(Leaf::Estimate))
-                // (Not this instance's own estimates.)
-                .allowed_origin(Locality::Remote)
-                .callback(callback)
-                .await
-                .map_err(zerr)?,
-        )
-    } else {
-        None
-    };
+    let mut routing = Routing::new(keys.clone(), callback.clone());
+    if !dynamic {
+        let all = RoutePlan {
+            owned: (0..ROUTES as u8).collect(),
+            standby: Vec::new(),
+        };
+        routing.apply(&session, &all).await?;
+    }
     let q_attitude = session
         .declare_queryable(keys.all(Leaf::Attitude))
         .await
@@ -168,10 +171,11 @@ pub async fn run(
         .await
         .map_err(zerr)?;
     let membership = if dynamic {
-        Some(join_fleet(&session, &engine, &threads.members).await?)
+        Some(join_fleet(&session, &engine, &threads.members, &mut routing).await?)
     } else {
         None
     };
+    let mut plan = engine.route_plan();
     tracing::info!(
         prefix = keys.prefix(),
         instance = %instance,
@@ -184,6 +188,15 @@ pub async fn run(
     loop {
         tokio::select! {
             _ = &mut shutdown => break,
+            Ok(()) = async {
+                match plan.as_mut() {
+                    Some(p) => p.changed().await,
+                    None => std::future::pending().await,
+                }
+            } => {
+                let now = plan.as_mut().map(|p| p.borrow_and_update().clone()).unwrap_or_default();
+                routing.apply(&session, &now).await?;
+            }
             Ok(q) = q_attitude.recv_async() => {
                 per_vehicle(&engine, &q, Leaf::Attitude, |e, v| e.attitude_of(v).map(|a| json(&a))).await
             }
@@ -222,9 +235,7 @@ pub async fn run(
     let _ = gyro.undeclare().await;
     let _ = vectors.undeclare().await;
     let _ = imu.undeclare().await;
-    if let Some(e) = estimates {
-        let _ = e.undeclare().await;
-    }
+    routing.close().await;
     for q in [
         q_attitude,
         q_covariance,
@@ -325,6 +336,91 @@ impl EstimateOutlet for Nowhere {
     fn put(&self, _: Vec<u8>) {}
 }
 
+/// The subscriptions that follow the routes: the routed inputs of each route owned (one for all when
+/// every route is), the standby batches of each route kept (one for all when more than half are).
+struct Routing<F> {
+    keys: Keys,
+    callback: F,
+    /// By route; `None`: every route.
+    owned: BTreeMap<Option<u8>, zenoh::pubsub::Subscriber<()>>,
+    standby: BTreeMap<Option<u8>, zenoh::pubsub::Subscriber<()>>,
+}
+
+impl<F> Routing<F>
+where
+    F: Fn(zenoh::sample::Sample) + Clone + Send + Sync + 'static,
+{
+    fn new(keys: Keys, callback: F) -> Self {
+        Routing {
+            keys,
+            callback,
+            owned: BTreeMap::new(),
+            standby: BTreeMap::new(),
+        }
+    }
+
+    /// Subscribes to what `plan` needs and no more: the new subscriptions first, then the old ones
+    /// undeclared, so that nothing in both is missed in between.
+    async fn apply(
+        &mut self,
+        session: &zenoh::Session,
+        plan: &RoutePlan,
+    ) -> Result<(), ServiceError> {
+        let want = |routes: &[u8], all_when: usize| -> BTreeSet<Option<u8>> {
+            if routes.is_empty() {
+                BTreeSet::new()
+            } else if routes.len() >= all_when {
+                BTreeSet::from([None])
+            } else {
+                routes.iter().map(|&r| Some(r)).collect()
+            }
+        };
+        let owned = want(&plan.owned, ROUTES);
+        let standby = want(&plan.standby, ROUTES / 2 + 1);
+        for (wanted, have, standby_batches) in [
+            (&owned, &mut self.owned, false),
+            (&standby, &mut self.standby, true),
+        ] {
+            for &r in wanted {
+                if have.contains_key(&r) {
+                    continue;
+                }
+                let key = if standby_batches {
+                    self.keys.standby(r)
+                } else {
+                    self.keys.routed_inputs(r)
+                };
+                let sub = session
+                    .declare_subscriber(key)
+                    // (Not this instance's own batches of estimates.)
+                    .allowed_origin(Locality::Remote)
+                    .callback(self.callback.clone())
+                    .await
+                    .map_err(zerr)?;
+                have.insert(r, sub);
+            }
+            let gone: Vec<Option<u8>> = have
+                .keys()
+                .filter(|r| !wanted.contains(r))
+                .copied()
+                .collect();
+            for r in gone {
+                if let Some(sub) = have.remove(&r) {
+                    let _ = sub.undeclare().await;
+                }
+            }
+        }
+        tracing::debug!(owned = ?plan.owned, standby = ?plan.standby, "route subscriptions");
+        Ok(())
+    }
+
+    async fn close(self) {
+        for (_, sub) in self.owned.into_iter().chain(self.standby) {
+            let _ = sub.undeclare().await;
+        }
+    }
+}
+
 /// The liveliness token that makes this instance a member, and the subscriber that follows the
 /// others.
 type Membership = (
@@ -332,14 +428,19 @@ type Membership = (
     zenoh::pubsub::Subscriber<()>,
 );
 
-/// Joins the dynamic fleet: finds the live members and the vehicles' current estimates (so the
-/// vehicles this instance takes start where their owners are), declares this instance's token, and
-/// follows the members from then on. The engine releases and takes over vehicles on each change.
-async fn join_fleet(
+/// Joins the dynamic fleet: finds the live members, subscribes to what it will own and hold once it
+/// has joined, reads the current estimates of those routes' vehicles (so the vehicles it takes start
+/// where their owners are), declares this instance's token, and follows the members from then on.
+/// The engine releases and takes over routes on each change.
+async fn join_fleet<F>(
     session: &zenoh::Session,
     engine: &Arc<Engine>,
     members_tx: &crossbeam_channel::Sender<BTreeSet<String>>,
-) -> Result<Membership, ServiceError> {
+    routing: &mut Routing<F>,
+) -> Result<Membership, ServiceError>
+where
+    F: Fn(zenoh::sample::Sample) + Clone + Send + Sync + 'static,
+{
     let f = &engine.config.fleet;
     let keys = &engine.keys;
     let timeout = Duration::from_secs_f64(f.discovery_timeout_s);
@@ -360,11 +461,21 @@ async fn join_fleet(
             }
         }
     }
-    let others = members.lock().unwrap_or_else(|e| e.into_inner()).len() - 1;
-    if others > 0 {
-        // The current estimates of every vehicle: the starting points of what this instance takes.
+    // What this instance will own and hold: subscribed to (and kept) from now on.
+    let joining = members.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    engine.prepare(&joining);
+    if let Some(plan) = engine.route_plan() {
+        let plan = plan.borrow().clone();
+        routing.apply(session, &plan).await?;
+    }
+    if joining.len() > 1 {
+        // The current estimates of the vehicles of the routes it will hold: the starting points of
+        // what it takes.
+        let held = fleet::Assignment::new(&joining)
+            .map(|a| a.held_by(&f.instance))
+            .unwrap_or_default();
         let replies = session
-            .get(keys.all(Leaf::State))
+            .get(keys.states_of_routes(&held))
             .consolidation(zenoh::query::ConsolidationMode::None)
             .timeout(timeout)
             .await
@@ -494,7 +605,19 @@ async fn per_vehicle(
             return;
         }
     }
+    // `?routes=07a`: only the vehicles of these routes (a joining fleet member's get).
+    let routes: Option<Vec<u8>> = q.parameters().get("routes").map(|s| {
+        s.chars()
+            .filter_map(|c| keys::parse_route(&c.to_string()))
+            .collect()
+    });
     for v in engine.vehicles() {
+        if routes
+            .as_ref()
+            .is_some_and(|r| !r.contains(&route_of(&v.id)))
+        {
+            continue;
+        }
         let key = engine.keys.vehicle(&v.id, leaf);
         let matches = KeyExpr::try_from(key.as_str())
             .map(|k| k.intersects(&asked))

@@ -10,6 +10,7 @@
 //! the declarations it knows, so thousands of declared keys would cost the receiver (service or echo)
 //! far more than they save.
 
+use super::routed::{RoutedSender, FLUSH_S};
 use crate::service::keys::{Keys, Leaf};
 use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
@@ -39,6 +40,9 @@ pub struct LoadOptions {
     /// filter, in order, before it), and after the run one more sample per vehicle, 1 s later and not
     /// counted, has the last samples answered too.
     pub covering: bool,
+    /// Inputs on their routed keys, and batched for the routes' standby members
+    /// ([`super::routed`]): how a fleet scales.
+    pub routed: bool,
 }
 
 /// The report (`--json` prints it as one object).
@@ -193,14 +197,20 @@ pub fn time_key(t: f64) -> i64 {
 /// estimate key.
 pub async fn echo(session: &zenoh::Session, keys: &Keys) -> Result<Echo, zenoh::Error> {
     let mut subscribers = Vec::new();
-    for leaf in [Leaf::Vectors, Leaf::Imu] {
+    // (Plain and routed inputs.)
+    for key in [Leaf::Vectors, Leaf::Imu]
+        .into_iter()
+        .flat_map(|leaf| [keys.all(leaf), keys.routed_all(leaf)])
+    {
         let publisher = session.clone();
         let k = keys.clone();
         subscribers.push(
             session
-                .declare_subscriber(keys.all(leaf))
+                .declare_subscriber(key)
                 .callback(move |s: zenoh::sample::Sample| {
-                    if let Some((vehicle, _)) = k.split(s.key_expr().as_str()) {
+                    if let Some(crate::service::keys::Received::Vehicle { vehicle, .. }) =
+                        k.classify(s.key_expr().as_str())
+                    {
                         let _ = zenoh::Wait::wait(
                             publisher
                                 .put(k.vehicle(vehicle, Leaf::Estimate), s.payload().clone())
@@ -249,6 +259,16 @@ pub async fn probe(
     keys: &Keys,
     vehicle_prefix: &str,
 ) -> Result<(), zenoh::Error> {
+    probe_on(session, keys, vehicle_prefix, None).await
+}
+
+/// [`probe`], through `routed` when given.
+async fn probe_on(
+    session: &zenoh::Session,
+    keys: &Keys,
+    vehicle_prefix: &str,
+    routed: Option<&RoutedSender>,
+) -> Result<(), zenoh::Error> {
     let vehicle = format!("{vehicle_prefix}0");
     let got = Arc::new(AtomicU64::new(0));
     let g = got.clone();
@@ -265,10 +285,18 @@ pub async fn probe(
             return Err("no estimate for the probe vehicle within 10 s: is the service (or echo) reachable?".into());
         }
         let payload = serde_json::to_vec(&star_set(t, 0)).unwrap_or_default();
-        session
-            .put(keys.vehicle(&vehicle, Leaf::Vectors), payload)
-            .encoding(Encoding::APPLICATION_JSON)
-            .await?;
+        match routed {
+            Some(r) => {
+                let key = r.key(&vehicle, Leaf::Vectors)?;
+                r.put(&vehicle, Leaf::Vectors, &key, payload).await?
+            }
+            None => {
+                session
+                    .put(keys.vehicle(&vehicle, Leaf::Vectors), payload)
+                    .encoding(Encoding::APPLICATION_JSON)
+                    .await?
+            }
+        }
         t += 1.0;
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
@@ -341,14 +369,20 @@ pub async fn run(
         })
         .await?;
     let _rejections = count_rejections(session, keys, index.clone(), rejected.clone()).await?;
+    let routed = options
+        .routed
+        .then(|| RoutedSender::start(session, keys, Duration::from_secs_f64(FLUSH_S)));
     // Prove the path before the clock starts: a probe vehicle (`<prefix>0`) until its first estimate
     // comes back, so that declarations still propagating are not counted as losses.
-    probe(session, keys, &options.vehicle_prefix).await?;
+    probe_on(session, keys, &options.vehicle_prefix, routed.as_ref()).await?;
 
     // Each vehicle's keys, checked once.
     let keys_of = |leaf: Leaf| -> Result<Vec<KeyExpr<'static>>, zenoh::Error> {
         ids.iter()
-            .map(|v| KeyExpr::try_from(keys.vehicle(v, leaf)))
+            .map(|v| match &routed {
+                Some(r) => r.key(v, leaf),
+                None => KeyExpr::try_from(keys.vehicle(v, leaf)),
+            })
             .collect()
     };
     let (gyro, vectors, imu) = (
@@ -356,11 +390,21 @@ pub async fn run(
         keys_of(Leaf::Vectors)?,
         keys_of(Leaf::Imu)?,
     );
-    let put = |key: &KeyExpr<'static>, payload: Vec<u8>| {
-        session
-            .put(key.clone(), payload)
-            .encoding(Encoding::APPLICATION_JSON)
-            .congestion_control(CongestionControl::Block)
+    let put = |i: usize, leaf: Leaf, key: &KeyExpr<'static>, payload: Vec<u8>| {
+        let (session, routed, ids) = (session, routed.as_ref(), &ids);
+        let key = key.clone();
+        async move {
+            match routed {
+                Some(r) => r.put(&ids[i], leaf, &key, payload).await,
+                None => {
+                    session
+                        .put(key, payload)
+                        .encoding(Encoding::APPLICATION_JSON)
+                        .congestion_control(CongestionControl::Block)
+                        .await
+                }
+            }
+        }
     };
     if options.imu_batch > 0 {
         // An IMU vehicle aligns from its first samples (no estimate for them): 0.2 s of samples (twice
@@ -373,7 +417,13 @@ pub async fn run(
                 .map(|j| imu_sample(-((n - j) as f64) * dt, i))
                 .collect();
             for chunk in warmup.chunks(options.imu_batch) {
-                put(&imu[i], serde_json::to_vec(chunk).unwrap_or_default()).await?;
+                put(
+                    i,
+                    Leaf::Imu,
+                    &imu[i],
+                    serde_json::to_vec(chunk).unwrap_or_default(),
+                )
+                .await?;
             }
         }
         tokio::time::sleep(Duration::from_millis(300)).await;
@@ -405,7 +455,7 @@ pub async fn run(
                         p.insert(time_key(s.t), now);
                     }
                 }
-                put(key, payload).await?;
+                put(i, Leaf::Imu, key, payload).await?;
                 sent += n as u64;
             }
             continue;
@@ -416,11 +466,11 @@ pub async fn run(
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .insert(time_key(t), Instant::now());
-            put(&vectors[i], payload).await?;
+            put(i, Leaf::Vectors, &vectors[i], payload).await?;
             sent += 1;
             let gyro_payload =
                 serde_json::to_vec(&GyroMsg { t, omega: [0.0; 3] }).unwrap_or_default();
-            put(&gyro[i], gyro_payload).await?;
+            put(i, Leaf::Gyro, &gyro[i], gyro_payload).await?;
             gyro_sent += 1;
         }
     }
@@ -431,11 +481,16 @@ pub async fn run(
         let t = ticks as f64 / options.rate_hz + 1.0;
         for (i, key) in imu.iter().enumerate() {
             put(
+                i,
+                Leaf::Imu,
                 key,
                 serde_json::to_vec(&imu_sample(t, i)).unwrap_or_default(),
             )
             .await?;
         }
+    }
+    if let Some(r) = routed {
+        r.close().await;
     }
     drain(&pending, Duration::from_secs_f64(options.drain_s)).await;
     let mut lat = latencies.lock().unwrap_or_else(|e| e.into_inner()).clone();

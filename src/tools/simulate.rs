@@ -1,6 +1,7 @@
 //! `attitude-service simulate`: publishes the simulator's scenarios for N vehicles to a running
 //! service over zenoh, in real time or faster, with the truth on `P/V/truth`.
 
+use super::routed::{RoutedSender, FLUSH_S};
 use crate::filters::FilterSpec;
 use crate::rng::derive_seed;
 use crate::sensors::Measurement;
@@ -46,6 +47,9 @@ pub struct SimulateOptions {
     /// Send each vehicle a reset with the scenario's initial estimate before streaming (an operator
     /// who knows roughly where the vehicle points); without it the service initialises itself.
     pub reset: bool,
+    /// Inputs on their routed keys, and batched for the routes' standby members
+    /// ([`super::routed`]).
+    pub routed: bool,
 }
 
 /// What was published.
@@ -198,6 +202,19 @@ pub async fn simulate(
             .encoding(Encoding::APPLICATION_JSON)
             .congestion_control(CongestionControl::Block)
     };
+    let routed = options
+        .routed
+        .then(|| RoutedSender::start(session, keys, Duration::from_secs_f64(FLUSH_S)));
+    // An input: on its routed key (and batched) or its plain key.
+    let input = |id: &str, leaf: Leaf, payload: Vec<u8>| {
+        let (routed, id) = (routed.as_ref(), id.to_string());
+        async move {
+            match routed {
+                Some(r) => r.put(&id, leaf, &r.key(&id, leaf)?, payload).await,
+                None => put(keys.vehicle(&id, leaf), payload).await,
+            }
+        }
+    };
     for j in 0..steps {
         let t = runs[0].measurements[j].t_s();
         let due = (options.speed > 0.0)
@@ -214,7 +231,7 @@ pub async fn simulate(
         for (id, run) in ids.iter().zip(&runs) {
             let m = &run.measurements[j];
             if let Some(p) = gyro_msg(m) {
-                put(keys.vehicle(id, Leaf::Gyro), p).await.map_err(zerr)?;
+                input(id, Leaf::Gyro, p).await.map_err(zerr)?;
                 stats.gyro_messages += 1;
             } else if let Some(p) = vectors_msg(m) {
                 let k = ((m.t_s() - t0) / dt).round().max(0.0) as usize;
@@ -231,13 +248,14 @@ pub async fn simulate(
                         stats.truth_messages += 1;
                     }
                 }
-                put(keys.vehicle(id, Leaf::Vectors), p)
-                    .await
-                    .map_err(zerr)?;
+                input(id, Leaf::Vectors, p).await.map_err(zerr)?;
                 stats.vector_messages += 1;
             }
         }
         stats.sim_time_s = t - t0;
+    }
+    if let Some(r) = routed {
+        r.close().await;
     }
     stats.wall_s = start.elapsed().as_secs_f64();
     Ok(stats)

@@ -91,9 +91,17 @@ pub struct FleetHealthMsg {
     /// Vehicles taken over from another member, and handed to another member, since start.
     pub takeovers: u64,
     pub released: u64,
-    /// Inputs of other members' vehicles kept for a takeover, and their last estimates.
+    /// The routes this instance owns (all 16 in single mode), and those it keeps standby data for
+    /// (dynamic mode): `0`..`15` (`proto/README.md`, Routed inputs).
+    pub routes_owned: Vec<u8>,
+    pub routes_standby: Vec<u8>,
+    /// Standby data kept for a takeover: inputs (received one by one, and senders' batches, a batch
+    /// counting once), the last estimates of vehicles, and their bytes.
     pub standby_inputs: usize,
     pub standby_estimates: usize,
+    pub standby_bytes: usize,
+    /// Standby batches that could not be read and were dropped.
+    pub standby_malformed: u64,
 }
 
 /// `P/@/health` `checkpoints`.

@@ -7,6 +7,7 @@
 //! `[δα (rad, body axes); δβ (rad/s)]`.
 
 mod admin;
+pub mod batch;
 mod input;
 mod output;
 mod rejection;

@@ -19,6 +19,7 @@
 
 use crate::common::{collecting_engine, proto_dir, service_config, wait_until, Outputs};
 use attitude_service::service::engine::{Engine, EngineThreads, Inbound};
+use attitude_service::service::keys::{route_of, ROUTES};
 use attitude_service::wire::{
     decode_one, ErrorMsg, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
 };
@@ -90,6 +91,9 @@ struct Row {
     /// propagated to.
     #[serde(default)]
     propagated_to: Option<f64>,
+    /// `wrong`: the input goes on a routed key whose route is the vehicle's plus one.
+    #[serde(default)]
+    route: Option<String>,
 }
 
 impl Row {
@@ -111,6 +115,20 @@ impl Row {
 
     fn config(&self) -> Map<String, Value> {
         self.config.clone().unwrap_or_default()
+    }
+
+    /// The key the row's input goes on (and its rejection names).
+    fn input_key(&self) -> String {
+        let target = self.target();
+        match self.route.as_deref() {
+            None => format!("{PREFIX}/{target}/{}", self.leaf),
+            Some("wrong") => format!(
+                "{PREFIX}/{target}/{}/{:x}",
+                self.leaf,
+                (route_of(target) + 1) % ROUTES as u8
+            ),
+            Some(other) => panic!("{}: route {other:?} (only \"wrong\")", self.id),
+        }
     }
 
     fn payload(&self) -> Vec<u8> {
@@ -363,8 +381,12 @@ impl Run {
     }
 
     fn put(&self, vehicle: &str, leaf: &str, payload: impl Into<Vec<u8>>) {
+        self.put_on(&format!("{PREFIX}/{vehicle}/{leaf}"), payload);
+    }
+
+    fn put_on(&self, key: &str, payload: impl Into<Vec<u8>>) {
         self.engine.dispatch(Inbound {
-            key: format!("{PREFIX}/{vehicle}/{leaf}"),
+            key: key.to_string(),
             payload: payload.into(),
         });
     }
@@ -576,7 +598,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             }
         }
     } else {
-        run.put(target, &row.leaf, row.payload());
+        run.put_on(&row.input_key(), row.payload());
         run.wait(Duration::from_secs(10), |r| {
             !r.rejections_since(n0).is_empty()
         });
@@ -704,7 +726,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             fails.push(format!("a reset published rejections: {rejections:?}"));
         }
     } else {
-        let input_key = format!("{PREFIX}/{target}/{}", row.leaf);
+        let input_key = row.input_key();
         match rejections.as_slice() {
             [(k, m)] => {
                 if *k != format!("{PREFIX}/{target}/rejected") {

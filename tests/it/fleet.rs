@@ -232,7 +232,9 @@ fn a_member_takes_over_without_losing_a_set() {
         },
     )
     .unwrap();
-    // a's last estimates may have come after the last relay of the wait: b must have them all.
+    // a's last estimates may have come after the last relay of the wait, and a sends its routes'
+    // standby members its estimates every fleet.flush_s (20 ms): b must have them all.
+    std::thread::sleep(Duration::from_millis(100));
     relay(&mut relayed);
     // Each vehicle was processed by its owner only.
     let pa = published(&out_a);
@@ -296,5 +298,259 @@ fn the_shipped_fleet_instance_configuration_is_valid() {
     ] {
         let e = parse(bad, "test").err().expect(bad).to_string();
         assert!(e.contains(what), "{bad}: {e}");
+    }
+}
+
+/// Four engines of a dynamic fleet, their inputs delivered as zenoh would deliver a routed sender's:
+/// each input on its routed key to the members subscribed to its route (its owner), the sender's
+/// batches of a route to its standby members, an owner's batches of estimates to them too. Every route
+/// has one owner and at most two standby members; a vehicle is processed by its owner only. Then a
+/// member fails: the owners of its routes after the change held them before, and take its vehicles over
+/// from the batches with no vector set lost or answered twice, each input used once even when it
+/// arrives both on its own and in a batch.
+#[test]
+fn routed_inputs_reach_owners_and_standbys_only() {
+    use attitude_service::service::fleet::Assignment;
+    use attitude_service::service::keys::{route_of, Keys, Leaf, ROUTES};
+    use attitude_service::wire::batch::{records, BatchWriter};
+
+    let names = ["a", "b", "c", "d"];
+    let members: Vec<_> = names.iter().map(|n| member(n)).collect();
+    let everyone: BTreeSet<String> = names.iter().map(|s| s.to_string()).collect();
+    for (_, t, _) in &members {
+        t.members.send(everyone.clone()).unwrap();
+    }
+    let plans = || -> Vec<_> {
+        members
+            .iter()
+            .map(|(e, _, _)| e.route_plan().unwrap().borrow().clone())
+            .collect()
+    };
+    wait_until("every member's plan", Duration::from_secs(10), || {
+        plans().iter().all(|p| !p.owned.is_empty())
+    })
+    .unwrap();
+    // One owner per route, its standby members the route's other holders.
+    let assignment = Assignment::new(&everyone).unwrap();
+    let p = plans();
+    for r in 0..ROUTES as u8 {
+        let owners: Vec<&str> = (0..4)
+            .filter(|&i| p[i].owned.contains(&r))
+            .map(|i| names[i])
+            .collect();
+        assert_eq!(owners, vec![assignment.owner(r)], "route {r}");
+        // (A route just taken over keeps its batches coming for a while, to its owner too.)
+        let standby: BTreeSet<&str> = (0..4)
+            .filter(|&i| p[i].standby.contains(&r) && !p[i].owned.contains(&r))
+            .map(|i| names[i])
+            .collect();
+        let others: BTreeSet<&str> = assignment
+            .holders(r)
+            .filter(|m| *m != assignment.owner(r))
+            .collect();
+        assert_eq!(standby, others, "route {r}");
+        assert_eq!(standby.len(), 2);
+    }
+    let keys = Keys::new("t");
+    let vehicles: Vec<String> = (0..24).map(|i| format!("v{i}")).collect();
+    let truth = Quaternion::new(0.2, 0.1, -0.3, 0.9).normalized().unwrap();
+    let alive = std::cell::RefCell::new([true; 4]);
+    // Delivers to the members whose current plan subscribes (owned: routed inputs; standby: batches).
+    let deliver = |key: &str, payload: &[u8], route: u8, to_standby: bool| {
+        let p = plans();
+        for (i, (_, t, _)) in members.iter().enumerate() {
+            let subscribed = if to_standby {
+                &p[i].standby
+            } else {
+                &p[i].owned
+            };
+            if alive.borrow()[i] && subscribed.contains(&route) {
+                t.ingest
+                    .send(Some(Inbound {
+                        key: key.to_string(),
+                        payload: payload.to_vec(),
+                    }))
+                    .unwrap();
+            }
+        }
+    };
+    let mut held: Vec<BatchWriter> = (0..ROUTES).map(|_| BatchWriter::default()).collect();
+    // The sender: each set and gyro sample on its routed key, and into its route's batch.
+    let send = |k: usize, held: &mut Vec<BatchWriter>| {
+        for v in &vehicles {
+            let r = route_of(v);
+            for (leaf, payload) in [
+                (Leaf::Gyro, format!(r#"{{"t":{k},"omega":[0,0,0]}}"#)),
+                (Leaf::Vectors, star_set(k as f64, &truth)),
+            ] {
+                deliver(&keys.routed(v, leaf), payload.as_bytes(), r, false);
+                held[r as usize].push(v, leaf.as_str(), payload.as_bytes());
+            }
+        }
+    };
+    let flush = |held: &mut Vec<BatchWriter>| {
+        for (r, w) in held.iter_mut().enumerate() {
+            if !w.is_empty() {
+                let b = w.take();
+                deliver(&keys.standby_inputs(r as u8), &b, r as u8, true);
+            }
+        }
+    };
+    // The owners' batches of estimates, relayed to the standby members as they appear.
+    let mut relayed = [0usize; 4];
+    let relay = |relayed: &mut [usize; 4]| {
+        for (i, (_, _, out)) in members.iter().enumerate() {
+            let new: Vec<(String, Vec<u8>)> = out.lock().unwrap()[relayed[i]..].to_vec();
+            relayed[i] += new.len();
+            if !alive.borrow()[i] {
+                continue;
+            }
+            for (key, payload) in new {
+                if let Some(r) = key
+                    .strip_prefix("t/@/standby/")
+                    .and_then(|rest| rest.split('/').next())
+                    .and_then(|c| u8::from_str_radix(c, 16).ok())
+                {
+                    assert!(key.ends_with("/estimates/default"), "{key}");
+                    assert!(records(&payload)
+                        .all(|rec| rec.is_ok_and(|rec| route_of(rec.vehicle) == r)));
+                    deliver(&key, &payload, r, true);
+                }
+            }
+        }
+    };
+    let published_by = |i: usize| published(&members[i].2);
+    for k in 0..10 {
+        send(k, &mut held);
+        flush(&mut held);
+        relay(&mut relayed);
+    }
+    wait_until(
+        "every set of every vehicle answered",
+        Duration::from_secs(20),
+        || {
+            relay(&mut relayed);
+            vehicles.iter().all(|v| {
+                (0..4)
+                    .map(|i| published_by(i).get(v).map_or(0, |t| t.len()))
+                    .sum::<usize>()
+                    == 10
+            })
+        },
+    )
+    .unwrap();
+    // Each vehicle by its route's owner only; the others received none of its inputs one by one.
+    for v in &vehicles {
+        let owner = assignment.owner(route_of(v));
+        for (i, name) in names.iter().enumerate() {
+            let n = published_by(i).get(v).map_or(0, |t| t.len());
+            assert_eq!(n, if *name == owner { 10 } else { 0 }, "{v} at {name}");
+        }
+    }
+    for (i, (e, _, _)) in members.iter().enumerate() {
+        let h = e.health();
+        let f = h.fleet.unwrap();
+        assert_eq!(f.routes_owned, p[i].owned, "{}", names[i]);
+        let standby: Vec<u8> = p[i]
+            .standby
+            .iter()
+            .filter(|r| !p[i].owned.contains(r))
+            .copied()
+            .collect();
+        assert_eq!(f.routes_standby, standby, "{}", names[i]);
+        let owned = vehicles
+            .iter()
+            .filter(|v| assignment.owner(route_of(v)) == names[i])
+            .count() as u64;
+        assert_eq!(
+            h.received,
+            owned * 20,
+            "{}: inputs received one by one",
+            names[i]
+        );
+        assert!(f.standby_bytes > 0 && f.standby_malformed == 0);
+    }
+    // a fails: its last estimates reach its standby members (it batches them every fleet.flush_s),
+    // then nothing more. Sets 10..12 go to a, and their batches are late (the sender's flush comes
+    // after the others notice); set 13 reaches the new owners on its own and in a batch (a new owner
+    // keeps its new routes' batches coming for a while: `RoutePlan`).
+    std::thread::sleep(Duration::from_millis(100));
+    relay(&mut relayed);
+    let of_a: Vec<&String> = vehicles
+        .iter()
+        .filter(|v| assignment.owner(route_of(v)) == "a")
+        .collect();
+    assert!(!of_a.is_empty());
+    for k in 10..13 {
+        send(k, &mut held);
+    }
+    alive.borrow_mut()[0] = false;
+    let rest: BTreeSet<String> = ["b", "c", "d"].iter().map(|s| s.to_string()).collect();
+    for (_, t, _) in &members[1..] {
+        t.members.send(rest.clone()).unwrap();
+    }
+    let after = Assignment::new(&rest).unwrap();
+    for r in 0..ROUTES as u8 {
+        assert!(
+            assignment.holds(after.owner(r), r),
+            "route {r} moved to a member without its data"
+        );
+    }
+    wait_until("the new plans", Duration::from_secs(10), || {
+        let p = plans();
+        (0..ROUTES as u8).all(|r| (1..4).filter(|&i| p[i].owned.contains(&r)).count() == 1)
+    })
+    .unwrap();
+    flush(&mut held);
+    send(13, &mut held);
+    flush(&mut held);
+    send(14, &mut held);
+    flush(&mut held);
+    wait_until(
+        "the new owners to answer every set",
+        Duration::from_secs(20),
+        || {
+            relay(&mut relayed);
+            of_a.iter().all(|v| {
+                (1..4)
+                    .filter_map(|i| published_by(i).get(*v).cloned())
+                    .flatten()
+                    .filter(|t| *t >= 10.0)
+                    .count()
+                    >= 5
+            })
+        },
+    )
+    .unwrap_or_else(|e| {
+        for v in &of_a {
+            let got: Vec<_> = (1..4)
+                .map(|i| (names[i], published_by(i).get(*v).cloned()))
+                .collect();
+            eprintln!("{v}: {got:?}");
+        }
+        panic!("{e}")
+    });
+    std::thread::sleep(Duration::from_millis(200));
+    for v in &of_a {
+        let new_owner = after.owner(route_of(v));
+        let i = names.iter().position(|n| *n == new_owner).unwrap();
+        assert_eq!(
+            published_by(i)[*v],
+            vec![10.0, 11.0, 12.0, 13.0, 14.0],
+            "{v} at {new_owner}"
+        );
+        for j in (1..4).filter(|&j| j != i) {
+            assert!(
+                published_by(j).get(*v).is_none(),
+                "{v} also at {}",
+                names[j]
+            );
+        }
+        let e = members[i].0.state_of(v).unwrap();
+        assert_eq!(e.seq, 15, "{v}: seq continues across the takeover");
+        assert_eq!(e.diagnostics.reinits.get("takeover"), Some(&1));
+    }
+    for (_, t, _) in members {
+        t.shutdown();
     }
 }

@@ -556,8 +556,12 @@ fn full_messages() -> Vec<(&'static str, Value)> {
             owned: 2,
             takeovers: 1,
             released: 0,
+            routes_owned: vec![0, 3, 4, 9, 10, 13, 14, 15],
+            routes_standby: vec![1, 2, 5, 6, 7, 8, 11, 12],
             standby_inputs: 40,
             standby_estimates: 3,
+            standby_bytes: 52310,
+            standby_malformed: 0,
         }),
     };
     let truth = TruthMsg {

@@ -417,6 +417,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         drain_s: 5.0,
         imu_batch: 0,
         covering: false,
+        routed: false,
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();
@@ -459,6 +460,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
     .await;
     let capped = LoadOptions {
         covering: true,
+        routed: false,
         vehicle_prefix: "lgc".into(),
         ..imu
     };

@@ -6,7 +6,8 @@ vehicle of its own, switched to the MEKF by a reset before it starts, fed gyro s
 leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `config` (overrides of
 `service.limits`) starts a service of its own. A row with `propagated_to` asserts the filters' contract for an
 update refused after its propagation (the filter and the vehicle's time stay at that time). No row is an expected
-failure: a row the service gets wrong fails its case.
+failure: a row the service gets wrong fails its case. A row with `route: "wrong"` goes on a routed key whose
+route is not its vehicle's.
 """
 
 from __future__ import annotations
@@ -15,13 +16,15 @@ import json
 import time
 
 import pytest
+import zenoh
 
+from attitude_client import ROUTES, route_of
 from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate, wait_until
 
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
 #: The keys a row may have (tests/it/bad_inputs.rs refuses any other, `known_issue` included).
 ROW_KEYS = {"id", "case", "leaf", "healthy", "vehicle", "payload", "payload_hex", "payload_gen", "config", "code",
-            "propagated_to"}
+            "propagated_to", "route"}
 #: Codes decided by the vehicle after the input was queued (the vehicle's `received` counts it).
 QUEUED_CODES = {"out_of_order", "duplicate", "time_jump", "mixed_inputs", "not_initialized", "filter_error"}
 OBS = [
@@ -207,6 +210,10 @@ def test_bad_input(service_for, baselines, index, row):
     rejections = Collector()
     sub = subscribe_synced(c, c.subscribe_rejections, rejections)
     fails = []
+    # The key the row's input goes on: plain, or routed with a route other than the vehicle's.
+    input_key = c.key(target, row["leaf"])
+    if row.get("route") == "wrong":
+        input_key += f"/{(route_of(target) + 1) % ROUTES:x}"
 
     if reset:
         replies = c.query(f"{target}/reset", payload=payload(row))
@@ -222,7 +229,7 @@ def test_bad_input(service_for, baselines, index, row):
             if err["key"] != f"{prefix}/{target}/reset":
                 fails.append(f"the error's key is {err['key']}")
     else:
-        c.put_raw(target, row["leaf"], payload(row))
+        c.session.put(input_key, payload(row), encoding=zenoh.Encoding.APPLICATION_JSON)
         deadline = time.monotonic() + 10.0
         while not rejections.snapshot() and time.monotonic() < deadline:
             time.sleep(0.005)
@@ -286,6 +293,6 @@ def test_bad_input(service_for, baselines, index, row):
             fails.append(f"rejected with {msg['code']} ({msg['message']}), not {code}")
         if not msg["message"]:
             fails.append("empty message")
-        if msg["key"] != f"{prefix}/{target}/{row['leaf']}":
+        if msg["key"] != input_key:
             fails.append(f"the rejection's key is {msg['key']}")
     assert not fails, f"{row['id']} ({row['case']}):\n" + "\n".join(fails)

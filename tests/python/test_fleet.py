@@ -1,8 +1,9 @@
 """A fleet of service instances behind two real zenoh routers (zenohd 1.10.2), and static sharding.
 
 `test_fleet_through_routers`: routers R1 and R2 (R2 connects to R1); instances i1, i2 attached to R1 and
-i3 to R2 (`serve --fleet`, zenoh client mode); the sensors publish through R2, the operator queries and
-subscribes through R1. Every vehicle is tracked by exactly one instance; i1 is killed (SIGKILL); the
+i3 to R2 (`serve --fleet`, zenoh client mode); the sensors publish through R2 (on routed keys, batched for
+the routes' standby members, `AttitudeClient(routed=True)`; the last two vehicles on plain keys, which every
+member receives), the operator queries and subscribes through R1. Every vehicle is tracked by exactly one instance; i1 is killed (SIGKILL); the
 survivors take its vehicles over from their last published estimates and replay what they kept since;
 a fourth instance joins and takes its share without a gap. Nothing is ever answered twice. The figures
 (vehicles per instance, takeover time, errors right after the takeover) are printed: `pytest -s`.
@@ -36,6 +37,8 @@ INSTANCE_CONFIG = ROOT / "config" / "fleet" / "instance.json5"
 PREFIX = "attitude"
 #: Every vehicle runs the default filter (qpf:average, 1000 particles): a takeover draws the particles.
 VEHICLES = [f"fv{i:02d}" for i in range(12)]
+#: These go on plain keys (every member receives them); the others on routed keys.
+PLAIN = {"fv10", "fv11"}
 SPEED = 2.0  # simulated seconds per wall second
 DURATION_S = 56.0
 #: The instances' zenoh lease in config/fleet/instance.json5 (ms): a frozen instance (lost link) is
@@ -112,11 +115,13 @@ def attitude_replies(op: AttitudeClient) -> list[str]:
 
 
 class Sensors(threading.Thread):
-    """Publishes every vehicle's scenario in (scaled) real time: gyro at 10 Hz, a vector set at 2 Hz."""
+    """Publishes every vehicle's scenario in (scaled) real time: gyro at 10 Hz, a vector set at 2 Hz; the
+    vehicles of `PLAIN` through `plain`, the others through `client`."""
 
-    def __init__(self, client: AttitudeClient):
+    def __init__(self, client: AttitudeClient, plain: AttitudeClient | None = None):
         super().__init__(daemon=True)
         self.client = client
+        self.plain = plain or client
         self.scenarios = {v: Scenario(seed=100 + i, duration_s=DURATION_S, vec_hz=2.0) for i, v in enumerate(VEHICLES)}
         self.chunks = {v: s.chunks() for v, s in self.scenarios.items()}
         self.sent_sets: dict[str, list[float]] = {v: [] for v in VEHICLES}
@@ -133,9 +138,10 @@ class Sensors(threading.Thread):
                 time.sleep(delay)
             for v in VEHICLES:
                 c = self.chunks[v][k]
+                client = self.plain if v in PLAIN else self.client
                 if c.gyro:
-                    self.client.publish_gyro_batch(v, [(tg, list(w)) for tg, w in c.gyro])
-                self.client.publish_vectors(
+                    client.publish_gyro_batch(v, [(tg, list(w)) for tg, w in c.gyro])
+                client.publish_vectors(
                     v, c.t, [{"body": list(b), "ref": list(r), "sigma": s, "sensor": n_} for b, r, s, n_ in c.obs]
                 )
                 self.sent_sets[v].append(c.t)
@@ -163,7 +169,8 @@ def test_fleet_through_routers(fleet_dir):
         }
         procs += inst.values()
         op = AttitudeClient(r1_ep, prefix=PREFIX, config=client_config(r1_ep))
-        sensor = AttitudeClient(r2_ep, prefix=PREFIX, config=client_config(r2_ep))
+        sensor = AttitudeClient(r2_ep, prefix=PREFIX, config=client_config(r2_ep), routed=True)
+        sensor_plain = AttitudeClient(r2_ep, prefix=PREFIX, config=client_config(r2_ep))
         estimates = Collector()
         op.subscribe_estimates(estimates)
         wait_until(lambda: len(owners(op)) == 3, 20, "three instances answering")
@@ -178,7 +185,7 @@ def test_fleet_through_routers(fleet_dir):
             "every instance to see three members",
         )
 
-        sensors = Sensors(sensor)
+        sensors = Sensors(sensor, sensor_plain)
         sensors.start()
         # --- phase 1: every vehicle tracked by exactly one instance.
         wait_until(lambda: sensors.sim_t >= 12.0, 30, "12 s of data")
@@ -186,6 +193,7 @@ def test_fleet_through_routers(fleet_dir):
         owned = sorted(v for vs in before.values() for v in vs)
         assert owned == sorted(VEHICLES), before
         assert attitude_replies(op) == sorted(VEHICLES)
+        print(f"\nanswers per vehicle to a get on */attitude: {len(attitude_replies(op)) / len(VEHICLES):g}")
         victim = max(before, key=lambda k: len(before[k]))
         moved = before[victim]
         assert moved, before
@@ -299,6 +307,12 @@ def test_fleet_through_routers(fleet_dir):
             if lost:
                 missing[v] = lost
         print(f"vector sets without an estimate: {sum(len(x) for x in missing.values())} {missing}")
+        twice = {v: n for v in VEHICLES if (n := len(estimates.where(vehicle=v)) - len({round(e["t"], 6) for e in estimates.where(vehicle=v)}))}
+        print(f"estimates published twice (the same vehicle and t): {sum(twice.values())} {twice}")
+        inputs = {
+            k: (h["received"], h["fleet"]["routes_owned"], h["fleet"]["standby_bytes"]) for k, h in op.instances().items()
+        }
+        print(f"inputs received one by one, routes owned and standby bytes, per instance: {inputs}")
         assert not missing, missing
         # Final accuracy of every vehicle.
         worst = 0.0
@@ -309,6 +323,7 @@ def test_fleet_through_routers(fleet_dir):
         assert worst < 0.01
         op.close()
         sensor.close()
+        sensor_plain.close()
     finally:
         for p in procs:
             p.stop()

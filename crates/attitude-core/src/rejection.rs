@@ -56,12 +56,14 @@ pub enum RejectCode {
     MixedInputs,
     /// The filter refused the input (numerical failure); the filter is unchanged.
     FilterError,
+    /// A routed input (`P/V/<leaf>/<r>`) whose route `r` is not the vehicle's.
+    WrongRoute,
     /// Something failed inside the service.
     Internal,
 }
 
 impl RejectCode {
-    pub const ALL: [RejectCode; 20] = [
+    pub const ALL: [RejectCode; 21] = [
         RejectCode::InvalidUtf8,
         RejectCode::InvalidJson,
         RejectCode::BadRequest,
@@ -81,6 +83,7 @@ impl RejectCode {
         RejectCode::QueueFull,
         RejectCode::MixedInputs,
         RejectCode::FilterError,
+        RejectCode::WrongRoute,
         RejectCode::Internal,
     ];
 
@@ -105,6 +108,7 @@ impl RejectCode {
             RejectCode::QueueFull => "queue_full",
             RejectCode::MixedInputs => "mixed_inputs",
             RejectCode::FilterError => "filter_error",
+            RejectCode::WrongRoute => "wrong_route",
             RejectCode::Internal => "internal",
         }
     }

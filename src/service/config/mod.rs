@@ -487,6 +487,8 @@ pub fn override_fleet(
         instance: Some(instance.unwrap_or_else(|| f.instance.clone())),
         vehicles: vehicles.unwrap_or_else(|| f.vehicles.clone()),
         standby_s: f.standby_s,
+        standby_bytes: f.standby_bytes,
+        flush_s: f.flush_s,
         discovery_timeout_s: f.discovery_timeout_s,
     };
     config.fleet = validate_fleet(&config.key_prefix, raw)?;
@@ -536,6 +538,12 @@ fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
     if !(raw.standby_s.is_finite() && raw.standby_s >= 0.0) {
         return Err("service.fleet.standby_s must be finite and non-negative".into());
     }
+    if !(raw.flush_s.is_finite() && raw.flush_s > 0.0 && raw.flush_s <= 1.0) {
+        return Err("service.fleet.flush_s must be in (0, 1] s".into());
+    }
+    if raw.standby_bytes == 0 {
+        return Err("service.fleet.standby_bytes must be positive".into());
+    }
     if !(raw.discovery_timeout_s.is_finite() && raw.discovery_timeout_s > 0.0) {
         return Err("service.fleet.discovery_timeout_s must be positive".into());
     }
@@ -545,6 +553,8 @@ fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
         instance,
         vehicles,
         standby_s: raw.standby_s,
+        standby_bytes: raw.standby_bytes,
+        flush_s: raw.flush_s,
         discovery_timeout_s: raw.discovery_timeout_s,
     })
 }

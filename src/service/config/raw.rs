@@ -72,6 +72,8 @@ pub(super) struct RawFleet {
     pub(super) instance: Option<String>,
     pub(super) vehicles: String,
     pub(super) standby_s: f64,
+    pub(super) standby_bytes: usize,
+    pub(super) flush_s: f64,
     pub(super) discovery_timeout_s: f64,
 }
 
@@ -84,6 +86,8 @@ impl Default for RawFleet {
             instance: None,
             vehicles: d.vehicles,
             standby_s: d.standby_s,
+            standby_bytes: d.standby_bytes,
+            flush_s: d.flush_s,
             discovery_timeout_s: d.discovery_timeout_s,
         }
     }

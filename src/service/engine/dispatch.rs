@@ -1,6 +1,7 @@
-//! The dispatcher thread, the wire edge: inputs in arrival order, split by key, checked for fleet
-//! ownership, decoded straight into measurements and queued on their vehicle's inbox; the vehicles go
-//! to the worker pool once the inputs already waiting are queued too.
+//! The dispatcher thread, the wire edge: inputs in arrival order, classified by key (a vehicle's input,
+//! plain or routed, or a standby batch), checked for fleet ownership, decoded straight into
+//! measurements and queued on their vehicle's inbox; the vehicles go to the worker pool once the inputs
+//! already waiting are queued too.
 
 use super::*;
 
@@ -22,12 +23,12 @@ impl Engine {
                     let Ok(Some(inbound)) = m else { return };
                     // What else is already waiting is queued too before the vehicles go to the
                     // workers: in a burst a vehicle's inputs then take one worker turn, not one each.
-                    touched.extend(self.dispatch_with(inbound, &mut decoded));
+                    self.dispatch_with(inbound, &mut decoded, &mut touched);
                     let mut stop = false;
                     for _ in 1..DISPATCH_BATCH {
                         match ingest.try_recv() {
                             Ok(Some(inbound)) => {
-                                touched.extend(self.dispatch_with(inbound, &mut decoded))
+                                self.dispatch_with(inbound, &mut decoded, &mut touched)
                             }
                             Ok(None) => {
                                 stop = true;
@@ -54,35 +55,90 @@ impl Engine {
 
     /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
     pub fn dispatch(&self, inbound: Inbound) {
-        if let Some(v) = self.dispatch_with(inbound, &mut Vec::new()) {
+        let mut touched = Vec::new();
+        self.dispatch_with(inbound, &mut Vec::new(), &mut touched);
+        for v in touched {
             self.schedule(&v);
         }
     }
 
     /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
-    /// capacity is kept from one input to the next), returning the vehicle to schedule instead of
-    /// scheduling it.
+    /// capacity is kept from one input to the next), pushing the vehicles to schedule on `touched`
+    /// instead of scheduling them.
     fn dispatch_with(
         &self,
         inbound: Inbound,
         decoded: &mut Vec<Measurement>,
-    ) -> Option<Arc<Vehicle>> {
+        touched: &mut Vec<Arc<Vehicle>>,
+    ) {
         decoded.clear();
-        let (vehicle, leaf) = self.keys.split(&inbound.key)?;
-        if leaf == Leaf::Estimate {
-            self.remember_estimate(vehicle, &inbound.payload);
-            return None;
+        let (vehicle, leaf, route) = match self.keys.classify(&inbound.key) {
+            Some(Received::Vehicle {
+                vehicle,
+                leaf,
+                route,
+            }) => (vehicle, leaf, route),
+            Some(Received::StandbyInputs(r)) => {
+                let key = inbound.key.clone();
+                self.standby_inputs(r, &key, inbound.payload, decoded, touched);
+                return;
+            }
+            Some(Received::StandbyEstimates(r, group)) => {
+                self.standby_estimates(r, group, &inbound.key, &inbound.payload);
+                return;
+            }
+            None => return,
+        };
+        if !matches!(leaf, Leaf::Gyro | Leaf::Vectors | Leaf::Imu) {
+            return;
+        }
+        if let Some(chunk) = route {
+            // A routed key whose route is not its vehicle's would reach the wrong member of a fleet:
+            // refused by the one that receives it.
+            if validate_vehicle_id(vehicle).is_ok() && parse_route(chunk) != Some(route_of(vehicle))
+            {
+                let r = Rejection::new(
+                    RejectCode::WrongRoute,
+                    format!(
+                        "{}: the route of vehicle {vehicle} is {:x}, not {chunk} (proto/README.md, Routed inputs)",
+                        inbound.key,
+                        route_of(vehicle)
+                    ),
+                );
+                self.counters.received.fetch_add(1, Ordering::Relaxed);
+                self.reject(vehicle, &inbound.key, &r);
+                return;
+            }
         }
         if !self.owns(vehicle) {
             let vehicle = vehicle.to_string();
             self.keep_standby(&vehicle, inbound);
-            return None;
+            return;
         }
-        let result = self.decode(leaf, &inbound.payload, decoded)?;
+        if self.used_before(vehicle, leaf, &inbound.payload) {
+            return;
+        }
+        if let Some(v) = self.accept(vehicle, leaf, &inbound.key, &inbound.payload, decoded) {
+            touched.push(v);
+        }
+    }
+
+    /// Decodes an input of an owned vehicle and queues its measurements on its inbox, or refuses it
+    /// (published on `P/V/rejected`, with `key`); the vehicle to schedule.
+    pub(super) fn accept(
+        &self,
+        vehicle: &str,
+        leaf: Leaf,
+        key: &str,
+        payload: &[u8],
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
+        decoded.clear();
+        let result = self.decode(leaf, payload, decoded)?;
         let n = *result.as_ref().unwrap_or(&1) as u64;
         self.counters.received.fetch_add(n, Ordering::Relaxed);
         let refused = |r: &Rejection| {
-            self.reject(vehicle, &inbound.key, r);
+            self.reject(vehicle, key, r);
             None
         };
         if let Err(r) = validate_vehicle_id(vehicle) {

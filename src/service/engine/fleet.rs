@@ -1,29 +1,126 @@
-//! The engine's side of a fleet (dynamic mode): which member owns a vehicle, the inputs kept on
-//! standby for another member's vehicles, and the takeover when ownership moves here.
+//! The engine's side of a fleet (dynamic mode): the routes this member owns and holds, the standby
+//! data it keeps for the routes it holds but does not own, the takeover when a route becomes its own,
+//! and the batches of estimates it sends its routes' standby members.
+//!
+//! A route's standby data comes in batches (`wire::batch`): its inputs from their senders
+//! (`P/@/standby/<r>/inputs`), its estimates from its owner (`P/@/standby/<r>/estimates/<G>`). They are
+//! kept as they arrive, not parsed: a takeover reads them. Inputs a member receives one by one for a
+//! vehicle it does not own (plain keys, which every member receives, or a routed input while the
+//! owner changes) are kept per vehicle. A takeover uses both, each input once: for a while after it
+//! (`grace`, the longest a subscription takes to reach the senders) the route's inputs are checked
+//! against those already used, by a hash of their vehicle, leaf and bytes, whether they come one by
+//! one or in a batch.
 
 use super::*;
 
+/// A route's standby data (kept while held and not owned) and its takeover's memory.
+#[derive(Default)]
+pub(super) struct RouteStandby {
+    /// The senders' batches of the route's inputs, with their arrival (engine time, s), oldest first.
+    inputs: VecDeque<(f64, Vec<u8>)>,
+    /// The last estimate of each of the route's vehicles, as its owner published it (JSON).
+    estimates: HashMap<String, (f64, Vec<u8>)>,
+    /// Bytes of `inputs` and `estimates`.
+    bytes: usize,
+    /// Until this engine time after a takeover, the hashes of the route's inputs already used.
+    grace_until: f64,
+    seen: HashSet<u64>,
+}
+
+impl RouteStandby {
+    fn clear(&mut self) {
+        self.inputs.clear();
+        self.estimates.clear();
+        self.bytes = 0;
+    }
+}
+
+/// What the service subscribes to (dynamic mode): the routed inputs of the routes owned; the standby
+/// batches of the routes held but not owned, and of the routes taken over while their grace lasts (a
+/// batch sent before the takeover may hold inputs that never reached this member on their own).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RoutePlan {
+    pub owned: Vec<u8>,
+    pub standby: Vec<u8>,
+}
+
+/// Which input one is, to use it once: its vehicle, its leaf and its bytes.
+fn input_hash(vehicle: &str, leaf: Leaf, payload: &[u8]) -> u64 {
+    let h = crate::rng::fnv1a(vehicle.bytes(), crate::rng::FNV_OFFSET);
+    let h = crate::rng::fnv1a(leaf.as_str().bytes().chain([0xff]), h);
+    crate::rng::fnv1a(payload.iter().copied(), h)
+}
+
+/// An input leaf by its name in a batch record.
+fn input_leaf(name: &str) -> Option<Leaf> {
+    match name {
+        "gyro" => Some(Leaf::Gyro),
+        "vectors" => Some(Leaf::Vectors),
+        "imu" => Some(Leaf::Imu),
+        _ => None,
+    }
+}
+
 impl Engine {
+    fn dynamic(&self) -> bool {
+        self.config.fleet.mode == FleetMode::Dynamic
+    }
+
+    fn me(&self) -> &str {
+        &self.config.fleet.instance
+    }
+
+    /// Whether `vehicle` is inside this instance's static shard (`fleet.vehicles`).
+    fn in_shard(&self, vehicle: &str) -> bool {
+        let Some(shard) = &self.shard else {
+            return true;
+        };
+        let key = self.keys.vehicle(vehicle, Leaf::Gyro);
+        zenoh::key_expr::KeyExpr::try_from(key.as_str())
+            .map(|k| shard.intersects(&k))
+            .unwrap_or(false)
+    }
+
     /// Whether this instance processes and answers for `vehicle` (any string: a wildcard chunk is
-    /// owned too, so exactly one member refuses a wildcard put).
+    /// owned too, so exactly one member refuses a wildcard put): in its shard and, in a dynamic fleet,
+    /// the owner of its route.
     pub fn owns(&self, vehicle: &str) -> bool {
-        if let Some(shard) = &self.shard {
-            let key = self.keys.vehicle(vehicle, Leaf::Gyro);
-            let inside = zenoh::key_expr::KeyExpr::try_from(key.as_str())
-                .map(|k| shard.intersects(&k))
-                .unwrap_or(false);
-            if !inside {
-                return false;
-            }
+        if !self.in_shard(vehicle) {
+            return false;
         }
         match self.config.fleet.mode {
             FleetMode::Single => true,
-            FleetMode::Dynamic => {
-                let members = self.fleet.members.read().unwrap_or_else(|e| e.into_inner());
-                members.as_ref().and_then(|m| owner(vehicle, m))
-                    == Some(&self.config.fleet.instance)
-            }
+            FleetMode::Dynamic => self.owns_route(route_of(vehicle)),
         }
+    }
+
+    /// Whether this instance owns `route` (dynamic mode; always in single mode).
+    pub fn owns_route(&self, route: u8) -> bool {
+        if !self.dynamic() {
+            return true;
+        }
+        let a = self
+            .fleet
+            .assignment
+            .read()
+            .unwrap_or_else(|e| e.into_inner());
+        a.as_ref().is_some_and(|a| a.owns(self.me(), route))
+    }
+
+    /// Whether this instance keeps `route`'s standby data: it holds the route, now or once joined,
+    /// and does not own it.
+    fn keeps(&self, route: u8) -> bool {
+        if !self.dynamic() || self.owns_route(route) {
+            return false;
+        }
+        let me = self.me();
+        let holds = |a: &RwLock<Option<Arc<Assignment>>>| {
+            a.read()
+                .unwrap_or_else(|e| e.into_inner())
+                .as_ref()
+                .is_some_and(|a| a.holds(me, route) && a.has_standby(route))
+        };
+        holds(&self.fleet.assignment) || holds(&self.fleet.prepared)
     }
 
     /// The live members, when known (dynamic mode).
@@ -35,10 +132,75 @@ impl Engine {
             .clone()
     }
 
-    /// An estimate another member published (or one read at start): kept as the starting point of a
-    /// takeover. Our own vehicles' estimates are ignored; an older one never replaces a newer one.
+    /// The current assignment of the routes, when the members are known (dynamic mode).
+    pub fn assignment(&self) -> Option<Arc<Assignment>> {
+        self.fleet
+            .assignment
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+    }
+
+    /// The routes to subscribe to, as they change (dynamic mode; `None` in single mode).
+    pub fn route_plan(&self) -> Option<tokio::sync::watch::Receiver<RoutePlan>> {
+        self.fleet.plan.as_ref().map(|p| p.subscribe())
+    }
+
+    pub(super) fn publish_plan(&self) {
+        let Some(plan) = &self.fleet.plan else {
+            return;
+        };
+        let me = self.me();
+        let current = self.assignment();
+        let prepared = self
+            .fleet
+            .prepared
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
+        let mut p = RoutePlan::default();
+        let now = self.now_s();
+        let grace: Vec<bool> = {
+            let routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+            routes.iter().map(|r| r.grace_until >= now).collect()
+        };
+        for r in 0..ROUTES as u8 {
+            if current.as_ref().is_some_and(|a| a.owns(me, r)) {
+                p.owned.push(r);
+                if grace[r as usize] {
+                    p.standby.push(r);
+                }
+            } else if self.keeps(r) {
+                p.standby.push(r);
+            } else if prepared.as_ref().is_some_and(|a| a.owns(me, r)) {
+                // (About to own it: its inputs start arriving before the takeover, kept meanwhile.)
+                p.owned.push(r);
+            }
+        }
+        plan.send_if_modified(|old| {
+            let changed = *old != p;
+            *old = p;
+            changed
+        });
+    }
+
+    /// Before joining (dynamic mode): the members this instance is about to join, itself among them.
+    /// It keeps the standby data of the routes it will hold from now on, and owns nothing until
+    /// [`Engine::set_members`].
+    pub fn prepare(&self, members: &BTreeSet<String>) {
+        *self
+            .fleet
+            .prepared
+            .write()
+            .unwrap_or_else(|e| e.into_inner()) = Assignment::new(members).map(Arc::new);
+        self.publish_plan();
+    }
+
+    /// An estimate read from the network (a starting member's get on `P/*/state`): kept as the starting
+    /// point of a takeover. Our own vehicles' estimates are ignored; an older one never replaces a
+    /// newer one.
     pub fn remember_estimate(&self, vehicle: &str, payload: &[u8]) {
-        if self.config.fleet.mode != FleetMode::Dynamic || self.owns(vehicle) {
+        if !self.dynamic() || self.owns(vehicle) || !self.in_shard(vehicle) {
             return;
         }
         let e: EstimateMsg = match serde_json::from_slice(payload) {
@@ -63,12 +225,11 @@ impl Engine {
         }
     }
 
-    /// Keeps an input of a vehicle another member owns for `fleet.standby_s` (dynamic mode).
+    /// Keeps an input received on its own for a vehicle of a route held but not owned, for
+    /// `fleet.standby_s` (dynamic mode).
     pub(super) fn keep_standby(&self, vehicle: &str, inbound: Inbound) {
         let window = self.config.fleet.standby_s;
-        if self.config.fleet.mode != FleetMode::Dynamic
-            || window <= 0.0
-            || validate_vehicle_id(vehicle).is_err()
+        if window <= 0.0 || validate_vehicle_id(vehicle).is_err() || !self.keeps(route_of(vehicle))
         {
             return;
         }
@@ -86,46 +247,268 @@ impl Engine {
         }
     }
 
-    /// Drops standby inputs older than the window (housekeeping).
-    pub(super) fn trim_standby(&self) {
-        let oldest = self.now_s() - self.config.fleet.standby_s;
-        let mut standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
-        standby.retain(|_, q| {
-            while q.front().is_some_and(|(t, _)| *t < oldest) {
-                q.pop_front();
+    /// Whether an input of an owned vehicle was already used by a takeover of its route (and, while
+    /// the takeover's grace lasts, remembers it as used).
+    pub(super) fn used_before(&self, vehicle: &str, leaf: Leaf, payload: &[u8]) -> bool {
+        if !self.dynamic() {
+            return false;
+        }
+        let now = self.now_s();
+        let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+        let rs = &mut routes[route_of(vehicle) as usize];
+        if rs.grace_until < now {
+            if !rs.seen.is_empty() {
+                rs.seen = HashSet::new();
             }
-            !q.is_empty()
-        });
+            return false;
+        }
+        !rs.seen.insert(input_hash(vehicle, leaf, payload))
     }
 
-    /// The fleet's members changed (dispatcher thread, in order with the inputs): releases the
-    /// vehicles another member now owns and takes over those this instance now owns.
+    /// A sender's batch of route `route`'s inputs: kept while the route is held and not owned; after
+    /// a takeover of the route, its inputs not yet used go to their vehicles (pushed on `touched`).
+    pub(super) fn standby_inputs(
+        &self,
+        route: u8,
+        key: &str,
+        payload: Vec<u8>,
+        decoded: &mut Vec<Measurement>,
+        touched: &mut Vec<Arc<Vehicle>>,
+    ) {
+        if !self.dynamic() {
+            return;
+        }
+        if self.owns_route(route) {
+            let grace = {
+                let routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+                routes[route as usize].grace_until >= self.now_s()
+            };
+            if !grace {
+                return;
+            }
+            for rec in batch::records(&payload) {
+                let Ok(rec) = rec else {
+                    self.malformed_batch(key, &payload);
+                    break;
+                };
+                let Some(leaf) = input_leaf(rec.leaf) else {
+                    continue;
+                };
+                if route_of(rec.vehicle) != route || !self.owns(rec.vehicle) {
+                    continue;
+                }
+                if self.used_before(rec.vehicle, leaf, rec.payload) {
+                    continue;
+                }
+                let key = self.keys.routed(rec.vehicle, leaf);
+                if let Some(v) = self.accept(rec.vehicle, leaf, &key, rec.payload, decoded) {
+                    touched.push(v);
+                }
+            }
+            return;
+        }
+        if !self.keeps(route) {
+            return;
+        }
+        if batch::check(&payload).is_err() {
+            self.malformed_batch(key, &payload);
+            return;
+        }
+        let now = self.now_s();
+        let cap = self.config.fleet.standby_bytes / ROUTES;
+        let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+        let rs = &mut routes[route as usize];
+        rs.bytes += payload.len();
+        rs.inputs.push_back((now, payload));
+        while rs.bytes > cap {
+            let Some((_, old)) = rs.inputs.pop_front() else {
+                break;
+            };
+            rs.bytes -= old.len();
+        }
+    }
+
+    /// Route `route`'s owner's batch of estimates (group `group`): the last of each vehicle kept while
+    /// the route is held and not owned.
+    pub(super) fn standby_estimates(&self, route: u8, group: &str, key: &str, payload: &[u8]) {
+        if !self.dynamic() || group != self.config.fleet.group || !self.keeps(route) {
+            return;
+        }
+        let now = self.now_s();
+        let max = self.config.limits.max_vehicles;
+        let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+        let rs = &mut routes[route as usize];
+        for rec in batch::records(payload) {
+            let Ok(rec) = rec else {
+                drop(routes);
+                self.malformed_batch(key, payload);
+                return;
+            };
+            if rec.leaf != Leaf::Estimate.as_str()
+                || route_of(rec.vehicle) != route
+                || validate_vehicle_id(rec.vehicle).is_err()
+                || !self.in_shard(rec.vehicle)
+            {
+                continue;
+            }
+            if rs.estimates.len() >= max && !rs.estimates.contains_key(rec.vehicle) {
+                continue;
+            }
+            rs.bytes += rec.payload.len();
+            if let Some((_, old)) = rs
+                .estimates
+                .insert(rec.vehicle.to_string(), (now, rec.payload.to_vec()))
+            {
+                rs.bytes -= old.len();
+            }
+        }
+    }
+
+    fn malformed_batch(&self, key: &str, payload: &[u8]) {
+        self.fleet.malformed.fetch_add(1, Ordering::Relaxed);
+        let why = batch::check(payload).err().map(|e| e.to_string());
+        tracing::warn!(key, error = ?why, "a standby batch that cannot be read is dropped");
+    }
+
+    /// Drops standby data older than the window (housekeeping).
+    pub(super) fn trim_standby(&self) {
+        let oldest = self.now_s() - self.config.fleet.standby_s;
+        {
+            let mut standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
+            standby.retain(|_, q| {
+                while q.front().is_some_and(|(t, _)| *t < oldest) {
+                    q.pop_front();
+                }
+                !q.is_empty()
+            });
+        }
+        let now = self.now_s();
+        let mut ended = false;
+        {
+            let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+            for rs in routes.iter_mut() {
+                while rs.inputs.front().is_some_and(|(t, _)| *t < oldest) {
+                    if let Some((_, old)) = rs.inputs.pop_front() {
+                        rs.bytes -= old.len();
+                    }
+                }
+                if rs.grace_until < now && rs.grace_until > 0.0 {
+                    // A takeover's grace ended: its batches are no longer needed.
+                    rs.grace_until = 0.0;
+                    rs.seen = HashSet::new();
+                    ended = true;
+                }
+            }
+        }
+        if ended {
+            self.publish_plan();
+        }
+    }
+
+    /// Keeps a serialised estimate for the next batch to its route's standby members, when this
+    /// instance owns the route and the route has any.
+    pub(super) fn batch_estimate(&self, vehicle: &str, payload: &[u8]) {
+        let route = route_of(vehicle);
+        let mut out = self
+            .fleet
+            .outgoing
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        out[route as usize].push(vehicle, Leaf::Estimate.as_str(), payload);
+    }
+
+    /// Whether the estimates of `vehicle` go to standby members too (dynamic mode, a route with some).
+    pub(super) fn has_standby(&self, vehicle: &str) -> bool {
+        self.dynamic()
+            && self
+                .assignment()
+                .is_some_and(|a| a.has_standby(route_of(vehicle)))
+    }
+
+    /// Sends every route's estimates published since the last batch to its standby members
+    /// (housekeeping, every `fleet.flush_s`; and at shutdown).
+    pub fn flush_estimates(&self) {
+        if !self.dynamic() {
+            return;
+        }
+        let batches: Vec<(u8, Vec<u8>)> = {
+            let mut out = self
+                .fleet
+                .outgoing
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
+            out.iter_mut()
+                .enumerate()
+                .filter(|(_, w)| !w.is_empty())
+                .map(|(r, w)| (r as u8, w.take()))
+                .collect()
+        };
+        for (r, b) in batches {
+            (self.sink)(&self.keys.standby_estimates(r, &self.config.fleet.group), b);
+        }
+    }
+
+    /// The fleet's members changed (dispatcher thread, in order with the inputs): the routes are
+    /// assigned again; this instance releases the vehicles of the routes it no longer owns, takes
+    /// over the routes it now owns, and drops the standby data of the routes it no longer keeps.
     pub fn set_members(&self, members: BTreeSet<String>) {
         let changed = self.members().as_ref() != Some(&members);
+        let new = Assignment::new(&members).map(Arc::new);
         *self
             .fleet
             .members
             .write()
             .unwrap_or_else(|e| e.into_inner()) = Some(members.clone());
-        if !changed {
+        let old = std::mem::replace(
+            &mut *self
+                .fleet
+                .assignment
+                .write()
+                .unwrap_or_else(|e| e.into_inner()),
+            new.clone(),
+        );
+        // (Prepared routes were kept for this: what follows uses them.)
+        let prepared = self
+            .fleet
+            .prepared
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
+            .take();
+        if !changed && prepared.is_none() {
             return;
         }
-        tracing::info!(instance = %self.config.fleet.instance, ?members, "fleet members");
+        let me = self.me().to_string();
+        tracing::info!(instance = %me, ?members, owned = ?new.as_ref().map(|a| a.owned_by(&me)), "fleet members");
         for v in self.vehicles() {
             if !self.owns(&v.id) {
                 self.release(&v);
             }
         }
-        let candidates: BTreeSet<String> = {
-            let cache = self.fleet.cache.lock().unwrap_or_else(|e| e.into_inner());
-            let standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
-            cache.keys().chain(standby.keys()).cloned().collect()
-        };
-        for id in candidates {
-            if self.owns(&id) && self.vehicle(&id).is_none() {
-                self.take_over(&id);
+        for r in 0..ROUTES as u8 {
+            let now_owned = new.as_ref().is_some_and(|a| a.owns(&me, r));
+            let was_owned = old.as_ref().is_some_and(|a| a.owns(&me, r));
+            if now_owned && !was_owned {
+                self.take_over_route(r);
+            } else if !now_owned && !self.keeps(r) {
+                self.drop_route(r);
             }
         }
+        self.publish_plan();
+    }
+
+    /// Forgets the standby data of a route no longer kept.
+    fn drop_route(&self, route: u8) {
+        self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner())[route as usize].clear();
+        self.fleet
+            .standby
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .retain(|v, _| route_of(v) != route);
+        self.fleet
+            .cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .retain(|v, _| route_of(v) != route);
     }
 
     /// Hands a vehicle to its new owner: it leaves the registry (what its inbox still holds is
@@ -150,32 +533,114 @@ impl Engine {
         tracing::info!(vehicle = %v.id, "vehicle released to another member");
     }
 
+    /// Takes over route `route`: every vehicle of it this instance has data for starts from its last
+    /// estimate and replays the inputs kept since; the route's inputs are then checked against those
+    /// used until the grace ends.
+    fn take_over_route(&self, route: u8) {
+        let now = self.now_s();
+        let grace = self.config.fleet.standby_s.max(2.0);
+        let (batches, estimates) = {
+            let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+            let rs = &mut routes[route as usize];
+            let batches = std::mem::take(&mut rs.inputs);
+            let estimates = std::mem::take(&mut rs.estimates);
+            rs.clear();
+            rs.grace_until = now + grace;
+            rs.seen = HashSet::new();
+            (batches, estimates)
+        };
+        // Each vehicle's inputs: those received on their own, then the batches', each once.
+        let mut inputs: BTreeMap<String, Vec<(Leaf, Vec<u8>)>> = BTreeMap::new();
+        let mut seen = HashSet::new();
+        let singles: Vec<(String, VecDeque<(f64, Inbound)>)> = {
+            let mut standby = self.fleet.standby.lock().unwrap_or_else(|e| e.into_inner());
+            let ids: Vec<String> = standby
+                .keys()
+                .filter(|v| route_of(v) == route)
+                .cloned()
+                .collect();
+            ids.into_iter()
+                .filter_map(|v| standby.remove(&v).map(|q| (v, q)))
+                .collect()
+        };
+        for (v, q) in singles {
+            for (_, inbound) in q {
+                if let Some(Received::Vehicle { leaf, .. }) = self.keys.classify(&inbound.key) {
+                    if seen.insert(input_hash(&v, leaf, &inbound.payload)) {
+                        inputs
+                            .entry(v.clone())
+                            .or_default()
+                            .push((leaf, inbound.payload));
+                    }
+                }
+            }
+        }
+        for (_, b) in &batches {
+            for rec in batch::records(b).map_while(Result::ok) {
+                let Some(leaf) = input_leaf(rec.leaf) else {
+                    continue;
+                };
+                if route_of(rec.vehicle) != route || validate_vehicle_id(rec.vehicle).is_err() {
+                    continue;
+                }
+                if seen.insert(input_hash(rec.vehicle, leaf, rec.payload)) {
+                    inputs
+                        .entry(rec.vehicle.to_string())
+                        .or_default()
+                        .push((leaf, rec.payload.to_vec()));
+                }
+            }
+        }
+        let cached: Vec<String> = {
+            let cache = self.fleet.cache.lock().unwrap_or_else(|e| e.into_inner());
+            cache
+                .keys()
+                .filter(|v| route_of(v) == route)
+                .cloned()
+                .collect()
+        };
+        let mut ids: BTreeSet<String> = inputs.keys().cloned().collect();
+        ids.extend(estimates.keys().cloned());
+        ids.extend(cached);
+        let mut estimates = estimates;
+        for id in ids {
+            if !self.owns(&id) || self.vehicle(&id).is_some() {
+                continue;
+            }
+            let raw = estimates.remove(&id).map(|(_, e)| e);
+            self.take_over(&id, raw, inputs.remove(&id).unwrap_or_default());
+        }
+        self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner())[route as usize].seen = seen;
+    }
+
     /// Starts a vehicle this instance now owns from the last estimate its previous owner published
-    /// (mean and covariance; a particle filter draws its particles from them), then replays the
-    /// standby inputs newer than that estimate. Without an estimate it starts from the inputs alone.
-    pub(super) fn take_over(&self, id: &str) {
-        let inputs = self
-            .fleet
-            .standby
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .remove(id)
-            .unwrap_or_default();
+    /// (mean and covariance; a particle filter draws its particles from them): the newer of the one in
+    /// the owner's batches (`raw`) and one read otherwise; then replays the inputs newer than it.
+    /// Without an estimate it starts from the inputs alone.
+    fn take_over(&self, id: &str, raw: Option<Vec<u8>>, inputs: Vec<(Leaf, Vec<u8>)>) {
         let cached = self
             .fleet
             .cache
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .remove(id);
+        let streamed = raw.and_then(|b| match serde_json::from_slice::<EstimateMsg>(&b) {
+            Ok(e) if e.vehicle == id => Some(Arc::new(e)),
+            _ => None,
+        });
+        let start = match (cached, streamed) {
+            (Some(a), Some(b)) => Some(if b.t >= a.t { b } else { a }),
+            (a, b) => a.or(b),
+        };
         // (Inputs that do not decode were refused by the owner of the time.)
         let mut measurements: Vec<Measurement> = Vec::new();
-        for (_, inbound) in &inputs {
-            if let Some((_, leaf)) = self.keys.split(&inbound.key) {
-                let _ = self.decode(leaf, &inbound.payload, &mut measurements);
-            }
+        for (leaf, payload) in &inputs {
+            let _ = self.decode(*leaf, payload, &mut measurements);
         }
+        // In time order (the vehicle would reorder them anyway, at the cost of replays).
+        measurements.sort_by(|a, b| a.t_s().total_cmp(&b.t_s()));
         let base = self.config.filter_for(id);
-        let (state, replay, snapshot) = match &cached {
+        let (state, replay, snapshot) = match &start {
             Some(e) => {
                 let t0 = e.t + crate::filters::SAME_INSTANT_S;
                 let last_gyro = measurements
@@ -228,10 +693,30 @@ impl Engine {
         self.fleet.takeovers.fetch_add(1, Ordering::Relaxed);
         tracing::info!(
             vehicle = id,
-            from_estimate = cached.as_ref().map(|e| e.t),
+            from_estimate = start.as_ref().map(|e| e.t),
             replayed = n,
             "vehicle taken over"
         );
         self.schedule(&v);
+    }
+
+    /// Standby data kept now: inputs (received on their own, and in batches, as batches) and
+    /// estimates (for `P/@/health`).
+    pub(super) fn standby_counts(&self) -> (usize, usize, usize) {
+        let singles: usize = self
+            .fleet
+            .standby
+            .lock()
+            .map(|s| s.values().map(|q| q.len()).sum())
+            .unwrap_or(0);
+        let routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
+        let batches: usize = routes.iter().map(|r| r.inputs.len()).sum();
+        let estimates: usize = routes.iter().map(|r| r.estimates.len()).sum::<usize>()
+            + self.fleet.cache.lock().map(|c| c.len()).unwrap_or(0);
+        (
+            singles + batches,
+            estimates,
+            routes.iter().map(|r| r.bytes).sum(),
+        )
     }
 }

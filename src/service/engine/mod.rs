@@ -10,8 +10,8 @@
 //!
 //! Files: this one (the types, start and restore, housekeeping, the registry and the workers),
 //! `dispatch.rs` (the dispatcher: decoding and queueing), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
-//! row of `P/@/vehicles`), `fleet.rs` (ownership, standby, takeover), `queries.rs` (pure reads for the
-//! queryables).
+//! row of `P/@/vehicles`), `fleet.rs` (routes: ownership, standby data, takeover, the owner's batches
+//! of estimates), `queries.rs` (pure reads for the queryables).
 
 mod dispatch;
 mod fleet;
@@ -19,21 +19,23 @@ mod metrics;
 mod output;
 mod queries;
 
+pub use fleet::RoutePlan;
 pub use metrics::METRICS_ENCODING;
 pub use output::{EstimateOutlet, Outlets, Sink};
 
 use super::config::ServiceConfig;
-use super::fleet::{owner, FleetMode};
-use super::keys::{Keys, Leaf};
+use super::fleet::{Assignment, FleetMode};
+use super::keys::{parse_route, route_of, Keys, Leaf, Received, ROUTES};
 use super::persist::{self, SavedCounters};
 use super::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
 use crate::sensors::Measurement;
+use crate::wire::batch::{self, BatchWriter};
 use crate::wire::{
     decode_batch_into, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, RejectCode, Rejection, ResetMsg,
     ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
 };
-use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
@@ -226,13 +228,28 @@ struct FleetState {
     /// The live members (this instance among them); `None` until first known: nothing is owned
     /// before, so a starting instance never processes what another member owns.
     members: RwLock<Option<BTreeSet<String>>>,
-    /// The last estimate published for each vehicle another member owns: where a takeover starts.
+    /// The routes' owners and holders for `members`.
+    assignment: RwLock<Option<Arc<Assignment>>>,
+    /// Before joining: the assignment once this instance has joined. It holds (keeps the standby
+    /// data of) the routes it will hold, and owns nothing yet.
+    prepared: RwLock<Option<Arc<Assignment>>>,
+    /// Estimates read before a takeover (at start, or the last of a vehicle released), parsed.
     cache: Mutex<HashMap<String, Arc<EstimateMsg>>>,
-    /// The raw inputs of vehicles another member owns, with their arrival (engine time, s), for
-    /// `fleet.standby_s`: a takeover replays those newer than the cached estimate.
+    /// Inputs received one by one for vehicles of routes held but not owned (plain keys, which
+    /// every member receives, or a routed input during a change of owner), with their arrival
+    /// (engine time, s), for `fleet.standby_s`.
     standby: Mutex<HashMap<String, VecDeque<(f64, Inbound)>>>,
+    /// Per route: its standby data (the senders' batches of its inputs, its owner's last estimates)
+    /// while held, and after a takeover the inputs already used.
+    routes: Mutex<Vec<fleet::RouteStandby>>,
+    /// Per route owned: the estimates published since the last batch to its standby members.
+    outgoing: Mutex<Vec<BatchWriter>>,
+    /// The routes to subscribe to, for the service (`service::run`).
+    plan: Option<tokio::sync::watch::Sender<RoutePlan>>,
     takeovers: AtomicU64,
     released: AtomicU64,
+    /// Standby batches that could not be read.
+    malformed: AtomicU64,
 }
 
 /// The running threads of an engine.
@@ -270,6 +287,8 @@ impl EngineThreads {
                 self.engine.work(&v, &mut Vec::new());
             }
         }
+        // The last estimates reach the standby members before this instance leaves.
+        self.engine.flush_estimates();
         self.engine.checkpoint_all();
     }
 }
@@ -308,10 +327,17 @@ impl Engine {
         let shard = (config.fleet.vehicles != "*")
             .then(|| zenoh::key_expr::OwnedKeyExpr::try_from(keys.all(Leaf::Gyro)).ok())
             .flatten();
+        let fleet = FleetState {
+            routes: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
+            outgoing: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
+            plan: (config.fleet.mode == FleetMode::Dynamic)
+                .then(|| tokio::sync::watch::Sender::new(RoutePlan::default())),
+            ..Default::default()
+        };
         let engine = Arc::new(Engine {
             keys,
             shard,
-            fleet: FleetState::default(),
+            fleet,
             config: Arc::new(config),
             counters: Counters::default(),
             started: Instant::now(),
@@ -416,6 +442,8 @@ impl Engine {
         let interval = self.config.persistence.checkpoint_interval_s;
         let mut next_checkpoint = self.now_s() + interval;
         let mut next_trim = self.now_s() + 1.0;
+        let flush = self.config.fleet.flush_s;
+        let mut next_flush = self.now_s() + flush;
         let tick = std::time::Duration::from_secs_f64(TICK_S);
         loop {
             match stop.recv_timeout(tick) {
@@ -441,6 +469,10 @@ impl Engine {
                     drop(inbox);
                     self.schedule(&v);
                 }
+            }
+            if self.now_s() >= next_flush {
+                self.flush_estimates();
+                next_flush = self.now_s() + flush;
             }
             if self.now_s() >= next_trim {
                 self.trim_standby();

@@ -141,7 +141,10 @@ impl Engine {
         let outlet = out
             .outlet
             .get_or_init(|| (self.outlets)(&self.keys.vehicle(&v.id, Leaf::Estimate)));
-        let payload = if outlet.wanted() {
+        // (In a fleet the route's standby members get every estimate, in the owner's next batch.)
+        let standby = self.has_standby(&v.id);
+        let wanted = outlet.wanted();
+        let payload = if wanted || standby {
             let mut buf = Vec::with_capacity(out.last_len.load(Ordering::Relaxed) + 64);
             if let Err(err) = serde_json::to_writer(&mut buf, &e) {
                 tracing::error!(vehicle = %v.id, %err, "cannot serialise an estimate");
@@ -155,7 +158,12 @@ impl Engine {
         *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(e));
         self.counters.estimates.fetch_add(1, Ordering::Relaxed);
         if let Some(payload) = payload {
-            outlet.put(payload);
+            if standby {
+                self.batch_estimate(&v.id, &payload);
+            }
+            if wanted {
+                outlet.put(payload);
+            }
         }
     }
 }

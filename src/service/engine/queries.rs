@@ -30,6 +30,14 @@ impl Engine {
 
     pub(super) fn fleet_health(&self, owned: usize) -> FleetHealthMsg {
         let f = &self.config.fleet;
+        let (standby_inputs, standby_estimates, standby_bytes) = self.standby_counts();
+        let me = f.instance.as_str();
+        let assignment = self.assignment();
+        let routes = |of: &dyn Fn(&Assignment) -> Vec<u8>| match (f.mode, &assignment) {
+            (FleetMode::Single, _) => (0..ROUTES as u8).collect(),
+            (FleetMode::Dynamic, Some(a)) => of(a),
+            (FleetMode::Dynamic, None) => Vec::new(),
+        };
         FleetHealthMsg {
             mode: f.mode.as_str().into(),
             group: f.group.clone(),
@@ -42,13 +50,20 @@ impl Engine {
             owned,
             takeovers: self.fleet.takeovers.load(Ordering::Relaxed),
             released: self.fleet.released.load(Ordering::Relaxed),
-            standby_inputs: self
-                .fleet
-                .standby
-                .lock()
-                .map(|s| s.values().map(|q| q.len()).sum())
-                .unwrap_or(0),
-            standby_estimates: self.fleet.cache.lock().map(|c| c.len()).unwrap_or(0),
+            routes_owned: routes(&|a| a.owned_by(me)),
+            routes_standby: match f.mode {
+                FleetMode::Single => Vec::new(),
+                FleetMode::Dynamic => routes(&|a| {
+                    a.held_by(me)
+                        .into_iter()
+                        .filter(|&r| !a.owns(me, r))
+                        .collect()
+                }),
+            },
+            standby_inputs,
+            standby_estimates,
+            standby_bytes,
+            standby_malformed: self.fleet.malformed.load(Ordering::Relaxed),
         }
     }
 

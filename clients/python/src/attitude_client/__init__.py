@@ -12,7 +12,7 @@ quaternion order and frames; :mod:`attitude_client.replay` replays a recorded IM
 
 from importlib import metadata as _metadata
 
-from .client import IMU_BATCH, KINDS, AttitudeClient, ServiceError, attitude_error_deg
+from .client import IMU_BATCH, KINDS, ROUTES, AttitudeClient, ServiceError, attitude_error_deg, route_of
 from .estimate import Estimate, attitude_matrix
 from .stream import EstimateStream, MessageStream
 
@@ -28,8 +28,10 @@ __all__ = [
     "IMU_BATCH",
     "KINDS",
     "MessageStream",
+    "ROUTES",
     "ServiceError",
     "attitude_error_deg",
     "attitude_matrix",
+    "route_of",
     "__version__",
 ]

@@ -23,7 +23,12 @@ a query right after a put may not reflect it yet (wait for its estimate instead)
 subscriber for yet.
 
 Keys are ``P/V/<leaf>`` with ``P`` the service's key prefix (``prefix``, default ``attitude``) and ``V`` a
-vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). Quaternions on the wire are ``{"w", "x", "y", "z"}``:
+vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). With ``routed=True`` (for a dynamic fleet of services,
+``serve --fleet``) inputs go on their routed keys ``P/V/<leaf>/<r>`` instead, ``r`` the vehicle's route
+(:func:`route_of`), and the client also sends them batched per route for the fleet's standby members
+(``P/@/standby/<r>/inputs``, every ``flush_s``): each input then reaches the route's owner and its standby
+members only, not every member (``proto/README.md``, Routed inputs). A single service takes routed inputs
+too. Quaternions on the wire are ``{"w", "x", "y", "z"}``:
 the orientation of the body in the reference frame (Hamilton), i.e. ``b = A(q) r`` with ``A(q)`` the
 transpose of the Hamilton rotation matrix of ``q``. Replies normalise ``w >= 0``.
 
@@ -45,6 +50,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import struct
 import threading
 import time
 import weakref
@@ -56,7 +62,7 @@ import zenoh
 from .estimate import Estimate
 from .stream import EstimateStream, MessageStream
 
-__all__ = ["AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "attitude_error_deg"]
+__all__ = ["AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "ROUTES", "attitude_error_deg", "route_of"]
 
 log = logging.getLogger("attitude_client")
 
@@ -68,6 +74,33 @@ _JSON = zenoh.Encoding.APPLICATION_JSON
 #: IMU samples per put when :meth:`AttitudeClient.publish_imu` is given arrays: about 150 bytes each,
 #: well inside the service's default ``limits.input`` (1 MiB, 10 000 items per batch).
 IMU_BATCH = 500
+
+
+#: Routes of the vehicles: a routed key's last chunk is one of ``0``..``f``.
+ROUTES = 16
+
+#: The input leaves (what ``routed=True`` sends on routed keys).
+_INPUTS = ("gyro", "vectors", "imu")
+
+_M64 = (1 << 64) - 1
+
+
+def route_of(vehicle: str) -> int:
+    """The route of ``vehicle`` (0-15): SplitMix64's finaliser of the 64-bit FNV-1a of its id's UTF-8 bytes,
+    mod 16 (``proto/README.md``, Routed inputs; the service computes the same)."""
+    h = 0xCBF29CE484222325
+    for b in vehicle.encode():
+        h = ((h ^ b) * 0x100000001B3) & _M64
+    h = ((h ^ (h >> 30)) * 0xBF58476D1CE4E5B9) & _M64
+    h = ((h ^ (h >> 27)) * 0x94D049BB133111EB) & _M64
+    h ^= h >> 31
+    return h % ROUTES
+
+
+def _record(vehicle: str, leaf: str, payload: bytes) -> bytes:
+    """One record of a standby batch: u16 key length, key ``V/<leaf>``, u32 payload length, payload."""
+    key = f"{vehicle}/{leaf}".encode()
+    return struct.pack("<H", len(key)) + key + struct.pack("<I", len(payload)) + payload
 
 
 class ServiceError(Exception):
@@ -164,6 +197,8 @@ class AttitudeClient:
     instead (for a service started with ``serve --connect``). The session is a zenoh peer with multicast
     scouting off. ``prefix``: the service's key prefix (``service.key_prefix``). ``timeout``: default
     timeout of queries, s. ``config``: an optional ``zenoh.Config`` used instead of the one built here.
+    ``routed``: send inputs on their routed keys and batched for a fleet's standby members (see the module's
+    text), the batches every ``flush_s`` seconds from a thread of the client's.
     """
 
     def __init__(
@@ -173,6 +208,8 @@ class AttitudeClient:
         connect: bool = True,
         timeout: float = 5.0,
         config: zenoh.Config | None = None,
+        routed: bool = False,
+        flush_s: float = 0.25,
     ):
         prefix = prefix.strip("/")
         if not prefix or any(c in prefix for c in "*$?#"):
@@ -189,6 +226,18 @@ class AttitudeClient:
             else:
                 config.insert_json5("listen/endpoints", json.dumps([endpoint]))
         self.session = zenoh.open(config)
+        self.routed = bool(routed)
+        self._batches: dict[int, list[bytes]] = {}
+        self._batch_lock = threading.Lock()
+        self._flusher = None
+        self._stop = threading.Event()
+        if self.routed:
+            if not flush_s > 0:
+                raise ValueError("flush_s must be positive")
+            self._flusher = threading.Thread(
+                target=self._flush_every, args=(float(flush_s),), name="attitude-client-batches", daemon=True
+            )
+            self._flusher.start()
         # zenoh runs Python callbacks on a non-daemon thread that lives as long as its subscriber: a
         # script that ends without close() would hang in the interpreter's shutdown, which joins
         # non-daemon threads before `atexit` runs. Close the session at that point instead.
@@ -203,7 +252,14 @@ class AttitudeClient:
     # Life cycle
 
     def close(self) -> None:
-        """Closes the zenoh session (subscribers declared through it stop)."""
+        """Closes the zenoh session (subscribers declared through it stop); a routed client first sends
+        what its batches still hold."""
+        if self._flusher is not None:
+            self._stop.set()
+            self._flusher.join(timeout=5)
+            self._flusher = None
+            if not self.session.is_closed():
+                self.flush()
         if not self.session.is_closed():
             self.session.close()
 
@@ -217,6 +273,30 @@ class AttitudeClient:
         """``P/V/<leaf>``."""
         return f"{self.prefix}/{vehicle}/{leaf}"
 
+    def routed_key(self, vehicle: str, leaf: str) -> str:
+        """``P/V/<leaf>/<r>``, ``r`` the vehicle's route as one hex digit."""
+        return f"{self.prefix}/{vehicle}/{leaf}/{route_of(vehicle):x}"
+
+    def flush(self) -> None:
+        """Sends the routes' batches now (a routed client does it every ``flush_s`` and when closed)."""
+        with self._batch_lock:
+            batches, self._batches = self._batches, {}
+        for route, records in sorted(batches.items()):
+            self.session.put(
+                f"{self.prefix}/@/standby/{route:x}/inputs",
+                b"".join(records),
+                encoding=zenoh.Encoding.APPLICATION_OCTET_STREAM,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+
+    def _flush_every(self, period: float) -> None:
+        while not self._stop.wait(period):
+            try:
+                self.flush()
+            except Exception:  # the session closed under us: nothing more to send
+                log.debug("batch flush failed", exc_info=True)
+                return
+
     def wait_for_service(self, timeout: float = 10.0) -> dict:
         """Polls ``P/@/health`` until the service answers; returns the health reply or raises TimeoutError."""
         return self.health(timeout=timeout)
@@ -225,13 +305,20 @@ class AttitudeClient:
     # Inputs
 
     def put_raw(self, vehicle: str, leaf: str, payload: bytes | str) -> None:
-        """Puts ``payload`` on ``P/V/<leaf>`` as is (for tools and tests; no validation)."""
+        """Puts ``payload`` on ``P/V/<leaf>`` as is (for tools and tests; no validation); a routed client
+        puts an input on ``P/V/<leaf>/<r>`` and adds it to its route's next batch."""
+        routed = self.routed and leaf in _INPUTS
         self.session.put(
-            self.key(vehicle, leaf),
+            self.routed_key(vehicle, leaf) if routed else self.key(vehicle, leaf),
             payload,
             encoding=_JSON,
             congestion_control=zenoh.CongestionControl.BLOCK,
         )
+        if routed:
+            data = payload.encode() if isinstance(payload, str) else bytes(payload)
+            record = _record(vehicle, leaf, data)
+            with self._batch_lock:
+                self._batches.setdefault(route_of(vehicle), []).append(record)
 
     def publish_gyro(
         self, vehicle: str, t: float | Sequence[float] | np.ndarray, omega: Sequence[float] | np.ndarray, batch: int = IMU_BATCH

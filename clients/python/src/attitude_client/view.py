@@ -89,6 +89,7 @@ REJECTION_CODES = (
     "queue_full",
     "mixed_inputs",
     "filter_error",
+    "wrong_route",
     "internal",
 )
 
