@@ -15,7 +15,9 @@ of the same repeat, each member's share, the loadgen's own CPU, and what loadgen
 CPU seconds, not wall time: two cores cannot show wall-clock scaling, and CPU seconds are robust to the
 other jobs of a shared machine. The target of issue 19: sum(N) <= 1.2 x lone for every N.
 
-Arguments after `--` go to loadgen (e.g. `-- --plain`); the binary's `loadgen --help` says what it takes.
+With --routed the fleets' load is sent on routed keys (`loadgen --routed`: each input reaches its route's
+owner, and its standby members in batches); the lone instance is always sent plain keys, as a single
+instance is used today. Arguments after `--` go to every loadgen (`loadgen --help` says what it takes).
 Only the Python standard library: runs without the project's .venv.
 """
 
@@ -52,7 +54,13 @@ def cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / TICK
 
 
-def config_text(filter_spec: str) -> str:
+def zenohd() -> str:
+    """The zenohd router of scripts/ensure-zenohd.sh (installed once into a cache)."""
+    out = subprocess.run(["bash", str(ROOT / "scripts" / "ensure-zenohd.sh")], check=True, capture_output=True, text=True)
+    return out.stdout.strip().splitlines()[-1]
+
+
+def config_text(filter_spec: str, client: bool) -> str:
     kind, _, fiducial = filter_spec.partition(":")
     f = {"kind": kind}
     if fiducial:
@@ -61,30 +69,39 @@ def config_text(filter_spec: str) -> str:
         f["particles"] = 1000
     return json.dumps(
         {
-            "zenoh": {"mode": "peer", "scouting": {"multicast": {"enabled": False}}},
+            "zenoh": {"mode": "client" if client else "peer", "scouting": {"multicast": {"enabled": False}}},
             "service": {"filter": f},
         }
     )
 
 
-def start_members(binary: str, n: int, workdir: pathlib.Path, config: pathlib.Path, tag: str):
+def start_members(
+    binary: str, n: int, workdir: pathlib.Path, config: pathlib.Path, tag: str, router: str | None, static: bool
+):
     ports = [free_port() for _ in range(n)]
     procs = []
     env = dict(os.environ, RUST_LOG="info")
     for k in range(n):
         name = f"m{k + 1}"
         args = ["nice", "-n", "-19", binary, "serve", "--config", str(config), "--instance", name]
-        args += ["--listen", f"tcp/127.0.0.1:{ports[k]}"]
-        if n > 1:
-            args += ["--fleet"]
+        if router:
+            args += ["--connect", router]
+        else:
+            args += ["--listen", f"tcp/127.0.0.1:{ports[k]}"]
             if k > 0:
                 args += ["--connect", f"tcp/127.0.0.1:{ports[0]}"]
+        if n > 1 and static:
+            # Static shards: the k-th of n even slices of the 16 routes, no fleet.
+            lo, hi = 16 * k // n, 16 * (k + 1) // n - 1
+            args += ["--routes", f"{lo:x}-{hi:x}"]
+        elif n > 1:
+            args += ["--fleet"]
         log = open(workdir / f"{tag}-{name}.log", "wb")
         procs.append((name, subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env), log))
     return ports, procs
 
 
-def wait_ready(procs, workdir: pathlib.Path, tag: str, timeout: float = 30.0) -> None:
+def wait_ready(procs, workdir: pathlib.Path, tag: str, static: bool, timeout: float = 30.0) -> None:
     """Until every member logs that it runs and (in a fleet) that it sees every member."""
     names = [name for name, _, _ in procs]
     deadline = time.monotonic() + timeout
@@ -96,7 +113,7 @@ def wait_ready(procs, workdir: pathlib.Path, tag: str, timeout: float = 30.0) ->
             text = (workdir / f"{tag}-{name}.log").read_text(errors="replace")
             if "attitude-service running" not in text:
                 ready = False
-            elif len(procs) > 1:
+            elif len(procs) > 1 and not static:
                 seen = re.findall(r"fleet members.*", text)
                 if not seen or not all(f'"{m}"' in seen[-1] for m in names):
                     ready = False
@@ -125,15 +142,29 @@ def member_pid(proc: subprocess.Popen) -> int:
 
 
 def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_extra: list[str], tag: str) -> dict:
-    ports, procs = start_members(args.bin, n, workdir, config, tag)
+    router = None
+    if args.router:
+        port = free_port()
+        router = f"tcp/127.0.0.1:{port}"
+        rlog = open(workdir / f"{tag}-router.log", "wb")
+        rproc = subprocess.Popen(
+            ["nice", "-n", "-19", zenohd(), "-l", router, "--no-multicast-scouting"], stdout=rlog, stderr=subprocess.STDOUT
+        )
+        time.sleep(0.5)
+    ports, procs = start_members(args.bin, n, workdir, config, tag, router, args.static)
+    if router:
+        procs.append(("router", rproc, rlog))
     try:
-        wait_ready(procs, workdir, tag)
-        time.sleep(1.0)  # declarations settle
+        wait_ready([p for p in procs if p[0] != "router"], workdir, tag, args.static)
+        # Declarations settle, and the takeovers of the start are over (their grace: 2 s).
+        time.sleep(3.0)
         before = {name: cpu_s(member_pid(p)) for name, p, _ in procs}
         cmd = ["nice", "-n", "-19", args.bin, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate)]
         cmd += ["--duration", str(args.duration), "--json"]
-        for p in ports:
-            cmd += ["--connect", f"tcp/127.0.0.1:{p}"]
+        for p in [router] if router else [f"tcp/127.0.0.1:{p}" for p in ports]:
+            cmd += ["--connect", p]
+        if n > 1 and args.routed:
+            cmd += ["--routed"]
         cmd += loadgen_extra
         t0 = time.monotonic()
         lg = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
@@ -145,10 +176,11 @@ def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_e
         if os.waitstatus_to_exitcode(status) != 0:
             raise SystemExit(f"loadgen failed: {err[-2000:]}")
         report = json.loads(out.strip().splitlines()[-1])
-        cpu = {name: after[name] - before[name] for name in before}
+        cpu = {name: after[name] - before[name] for name in before if name != "router"}
         return {
             "n": n,
             "cpu": cpu,
+            "router_cpu": after["router"] - before["router"] if router else None,
             "sum": sum(cpu.values()),
             "loadgen_cpu": usage.ru_utime + usage.ru_stime,
             "wall_s": wall,
@@ -173,17 +205,35 @@ def main() -> None:
     ap.add_argument("--members", default="1,2,3,4")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", help="also write every run as JSON into this file")
+    ap.add_argument(
+        "--static",
+        action="store_true",
+        help="N single instances each serving an even slice of the routes (serve --routes), not a fleet: "
+        "the same split without membership or standby (use with --routed)",
+    )
+    ap.add_argument(
+        "--router",
+        action="store_true",
+        help="a zenohd router in the middle (members and loadgen its clients), as config/fleet/instance.json5; its CPU is shown apart",
+    )
+    ap.add_argument(
+        "--routed",
+        action="store_true",
+        help="fleets (N > 1) get their inputs on routed keys (loadgen --routed); the lone instance always on plain keys",
+    )
     args = ap.parse_args(argv)
     members = [int(x) for x in args.members.split(",")]
     workdir = pathlib.Path(tempfile.mkdtemp(prefix="fleet-cpu."))
     config = workdir / "service.json5"
-    config.write_text(config_text(args.filter))
+    config.write_text(config_text(args.filter, args.router))
     print(
         f"# {args.filter}: {args.vehicles} vehicles x {args.rate:g} Hz (a vector set and a gyro sample each) "
-        f"for {args.duration:g} s; binary {args.bin}; loadgen {' '.join(extra) or '(defaults)'}; logs in {workdir}",
+        f"for {args.duration:g} s; binary {args.bin}; {'static route shards' if args.static else 'fleets'}' inputs "
+        f"{'routed' if args.routed else 'plain'}{' through a zenohd router' if args.router else ''}"
+        f"{'; loadgen ' + ' '.join(extra) if extra else ''}; logs in {workdir}",
         flush=True,
     )
-    print(f"{'rep':>3} {'N':>2} {'sum CPU s':>9} {'x lone':>6}  {'members (CPU s)':<40} {'loadgen':>7} "
+    print(f"{'rep':>3} {'N':>2} {'sum CPU s':>9} {'x lone':>6}  {'members (CPU s)':<40} {'loadgen':>7} {'router':>6} "
           f"{'lost':>5} {'p50 ms':>7} {'p99 ms':>7}", flush=True)
     runs = []
     for rep in range(args.repeat):
@@ -198,8 +248,9 @@ def main() -> None:
             rep_ = r["report"]
             shares = " ".join(f"{v:.2f}" for v in r["cpu"].values())
             ratio = f"{r['ratio']:.2f}" if r["ratio"] else "-"
+            rc = f"{r['router_cpu']:.2f}" if r["router_cpu"] is not None else "-"
             print(
-                f"{rep:>3} {n:>2} {r['sum']:>9.2f} {ratio:>6}  {shares:<40} {r['loadgen_cpu']:>7.2f} "
+                f"{rep:>3} {n:>2} {r['sum']:>9.2f} {ratio:>6}  {shares:<40} {r['loadgen_cpu']:>7.2f} {rc:>6} "
                 f"{rep_['lost']:>5} {rep_['p50_us'] / 1e3:>7.1f} {rep_['p99_us'] / 1e3:>7.1f}",
                 flush=True,
             )

@@ -49,6 +49,11 @@ pub struct LoadgenArgs {
     /// members only; a single instance takes them too). Default: the plain keys P/V/<leaf>.
     #[arg(long)]
     routed: bool,
+    /// Send each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as
+    /// independent vehicles do, instead of all of them at the start of each period (the default: a
+    /// burst every period).
+    #[arg(long)]
+    spread: bool,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -93,6 +98,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         imu_batch: args.imu.unwrap_or(0),
         covering: args.capped,
         routed: args.routed,
+        spread: args.spread,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

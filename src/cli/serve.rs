@@ -39,6 +39,11 @@ pub struct ServeArgs {
     /// (`service.fleet.vehicles`; default `*`): static sharding.
     #[arg(long, value_name = "PATTERN")]
     vehicles: Option<String>,
+    /// Serve only the vehicles of these routes (`service.fleet.routes`; default `all`): hex digits and
+    /// ranges, e.g. `0-7` or `0-3,c-f` (proto/README.md, Routed inputs). Static sharding that is even
+    /// whatever the vehicle ids; with --fleet the group shares these routes.
+    #[arg(long, value_name = "ROUTES")]
+    routes: Option<String>,
     /// Serve HTTP with zenoh's REST plugin, run inside the service, on PORT (every interface) or
     /// IP:PORT, e.g. `127.0.0.1:8000`: `GET /attitude/sc1/attitude`, `GET /attitude/@/metrics?_raw=true`
     /// (Prometheus). Sets the zenoh configuration's `plugins/rest/http_port`. Default: no HTTP.
@@ -61,6 +66,10 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
         args.vehicles,
     )
     .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(routes) = &args.routes {
+        crate::service::config::override_routes(&mut file.service, routes)
+            .map_err(|e| anyhow::anyhow!("--routes: {e}"))?;
+    }
     let mut zc = zenoh_config(&file.zenoh_json, &args.listen, &args.connect)?;
     if let Some(port) = args.rest_http_port {
         zc.insert_json5("plugins/rest/http_port", &serde_json::to_string(&port)?)

@@ -53,13 +53,17 @@ pub struct FleetConfig {
     pub instance: String,
     /// The vehicle chunk this instance serves, a key expression (`*` = all; `a$*` = ids starting `a`).
     pub vehicles: String,
+    /// The routes this instance (or its group) serves, a bit per route ([`ALL_ROUTES`]: every one):
+    /// static sharding by route, even whatever the vehicle ids.
+    pub routes: u16,
     /// How long (wall time, s) the samples of vehicles another member owns are kept, so that a
     /// takeover can replay what the failed owner had not yet published (dynamic mode).
     pub standby_s: f64,
     /// At most this many bytes of standby data (other members' inputs and estimates) are kept; the
     /// oldest go first.
     pub standby_bytes: usize,
-    /// How often an owner sends its routes' standby members the estimates published since, s.
+    /// How often an owner sends its routes' standby members the last estimate of each vehicle that
+    /// published one since, s.
     pub flush_s: f64,
     /// How long a starting member waits for the other members and their estimates, s.
     pub discovery_timeout_s: f64,
@@ -73,12 +77,75 @@ impl FleetConfig {
             group: "default".into(),
             instance: instance.into(),
             vehicles: "*".into(),
+            routes: ALL_ROUTES,
             standby_s: 12.0,
             standby_bytes: 256 << 20,
-            flush_s: 0.02,
+            flush_s: 0.5,
             discovery_timeout_s: 1.0,
         }
     }
+}
+
+/// Every route.
+pub const ALL_ROUTES: u16 = u16::MAX;
+
+/// Routes from their text: `all`, or hex digits and ranges separated by commas (`0-7`, `89ab`,
+/// `0-3,c-f`).
+pub fn parse_routes(spec: &str) -> Result<u16, String> {
+    let spec = spec.trim();
+    if spec == "all" {
+        return Ok(ALL_ROUTES);
+    }
+    let digit = |c: char| {
+        super::keys::parse_route(&c.to_string())
+            .ok_or_else(|| format!("'{c}' is not a route (0-9, a-f)"))
+    };
+    let mut mask = 0u16;
+    for part in spec.split(',') {
+        let chars: Vec<char> = part.trim().chars().collect();
+        match chars.as_slice() {
+            [a, '-', b] => {
+                let (a, b) = (digit(*a)?, digit(*b)?);
+                if a > b {
+                    return Err(format!("the range {part} is empty"));
+                }
+                (a..=b).for_each(|r| mask |= 1 << r);
+            }
+            [] => return Err("an empty part".into()),
+            digits => {
+                for c in digits {
+                    mask |= 1 << digit(*c)?;
+                }
+            }
+        }
+    }
+    Ok(mask)
+}
+
+/// The routes of `mask` as text (`all`, or ranges: `0-3,c-f`).
+pub fn routes_text(mask: u16) -> String {
+    if mask == ALL_ROUTES {
+        return "all".into();
+    }
+    let mut parts = Vec::new();
+    let mut r = 0;
+    while r < ROUTES {
+        if mask & (1 << r) == 0 {
+            r += 1;
+            continue;
+        }
+        let start = r;
+        while r + 1 < ROUTES && mask & (1 << (r + 1)) != 0 {
+            r += 1;
+        }
+        parts.push(if r > start {
+            format!("{start:x}-{r:x}")
+        } else {
+            format!("{start:x}")
+        });
+        r += 1;
+    }
+    parts.join(",")
 }
 
 /// A default instance name: the host name and the process id (unique on a host, readable in logs).
@@ -135,8 +202,14 @@ pub struct Assignment {
 }
 
 impl Assignment {
-    /// The assignment of `members`; `None` without members.
+    /// The assignment of `members` over every route; `None` without members.
     pub fn new(members: &BTreeSet<String>) -> Option<Self> {
+        Self::of_routes(members, ALL_ROUTES)
+    }
+
+    /// The assignment of `members` for the routes of `routes` (a bit per route: a static shard's),
+    /// balanced over those; the others have an owner too, never used.
+    pub fn of_routes(members: &BTreeSet<String>, routes: u16) -> Option<Self> {
         let members: Vec<String> = members.iter().cloned().collect();
         let n = members.len();
         if n == 0 {
@@ -151,7 +224,7 @@ impl Assignment {
             ranked.iter().take(HOLDERS).map(|&(_, i)| i).collect()
         });
         let mut owner: [usize; ROUTES] = std::array::from_fn(|r| holders[r][0]);
-        balance(&mut owner, &holders, n);
+        balance(&mut owner, &holders, n, routes);
         Some(Assignment {
             members,
             owner,
@@ -209,12 +282,16 @@ impl Assignment {
 /// ⌈16/n⌉ routes, then at least ⌊16/n⌋, as far as the candidates allow: each step shifts one route
 /// along a chain of owners (found breadth-first, in a fixed order), so the result is a function of the
 /// rankings alone.
-fn balance(owner: &mut [usize; ROUTES], holders: &[Vec<usize>; ROUTES], n: usize) {
-    let (lo, hi) = (ROUTES / n, ROUTES.div_ceil(n));
+fn balance(owner: &mut [usize; ROUTES], holders: &[Vec<usize>; ROUTES], n: usize, routes: u16) {
+    let served = |r: usize| routes & (1 << r) != 0;
+    let count = (0..ROUTES).filter(|&r| served(r)).count();
+    let (lo, hi) = (count / n, count.div_ceil(n));
     let load = |owner: &[usize; ROUTES]| {
         let mut l = vec![0usize; n];
-        for &o in owner.iter() {
-            l[o] += 1;
+        for (r, &o) in owner.iter().enumerate() {
+            if served(r) {
+                l[o] += 1;
+            }
         }
         l
     };
@@ -251,7 +328,7 @@ fn balance(owner: &mut [usize; ROUTES], holders: &[Vec<usize>; ROUTES], n: usize
             let mut found = None;
             'search: while let Some(m) = queue.pop_front() {
                 for r in 0..ROUTES {
-                    if owner[r] != m {
+                    if owner[r] != m || !served(r) {
                         continue;
                     }
                     let Some(o) = other(r, m) else { continue };
@@ -387,6 +464,30 @@ mod tests {
         let one = Assignment::new(&members(&["solo"])).unwrap();
         assert_eq!(one.owned_by("solo").len(), ROUTES);
         assert!(!one.has_standby(0));
+    }
+
+    #[test]
+    fn route_sets_parse_and_print() {
+        assert_eq!(parse_routes("all"), Ok(ALL_ROUTES));
+        assert_eq!(parse_routes("0-f"), Ok(ALL_ROUTES));
+        assert_eq!(parse_routes("0-3,c-f"), Ok(0xf00f));
+        assert_eq!(parse_routes("89ab"), Ok(0x0f00));
+        assert_eq!(parse_routes(" 1 "), Ok(0x0002));
+        for bad in ["", "g", "3-1", "0-", "a,,b", "A"] {
+            assert!(parse_routes(bad).is_err(), "{bad}");
+        }
+        for mask in [ALL_ROUTES, 0xf00f, 0x0f00, 0x0002, 0x5555] {
+            assert_eq!(parse_routes(&routes_text(mask)), Ok(mask));
+        }
+        assert_eq!(routes_text(0xf00f), "0-3,c-f");
+        // A static shard of eight routes shared by three members: 3, 3, 2 of them.
+        let a = Assignment::of_routes(&members(&["m1", "m2", "m3"]), 0x00ff).unwrap();
+        let mut got: Vec<usize> = ["m1", "m2", "m3"]
+            .iter()
+            .map(|m| a.owned_by(m).iter().filter(|&&r| r < 8).count())
+            .collect();
+        got.sort_unstable();
+        assert_eq!(got, vec![2, 3, 3]);
     }
 
     #[test]

@@ -123,11 +123,11 @@ pub async fn run(
     let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
     let mut routing = Routing::new(keys.clone(), callback.clone());
     if !dynamic {
-        let all = RoutePlan {
-            owned: (0..ROUTES as u8).collect(),
+        let served = RoutePlan {
+            owned: (0..ROUTES as u8).filter(|&r| engine.serves(r)).collect(),
             standby: Vec::new(),
         };
-        routing.apply(&session, &all).await?;
+        routing.apply(&session, &served).await?;
     }
     let q_attitude = session
         .declare_queryable(keys.all(Leaf::Attitude))
@@ -337,7 +337,7 @@ impl EstimateOutlet for Nowhere {
 }
 
 /// The subscriptions that follow the routes: the routed inputs of each route owned (one for all when
-/// every route is), the standby batches of each route kept (one for all when more than half are).
+/// every route is), the standby batches of each route kept (one for all when more than a quarter are).
 struct Routing<F> {
     keys: Keys,
     callback: F,
@@ -375,8 +375,12 @@ where
                 routes.iter().map(|&r| Some(r)).collect()
             }
         };
+        // (Every subscription of a session is matched against every sample it receives: a few
+        // subscriptions, not one per route, where the traffic allows. A route's batches are a few
+        // messages a second, so a member keeping more than a quarter of the routes takes every
+        // route's and drops the others; each route's inputs stay on their own subscription.)
         let owned = want(&plan.owned, ROUTES);
-        let standby = want(&plan.standby, ROUTES / 2 + 1);
+        let standby = want(&plan.standby, ROUTES / 4 + 1);
         for (wanted, have, standby_batches) in [
             (&owned, &mut self.owned, false),
             (&standby, &mut self.standby, true),
@@ -471,9 +475,12 @@ where
     if joining.len() > 1 {
         // The current estimates of the vehicles of the routes it will hold: the starting points of
         // what it takes.
-        let held = fleet::Assignment::new(&joining)
+        let held: Vec<u8> = fleet::Assignment::of_routes(&joining, f.routes)
             .map(|a| a.held_by(&f.instance))
-            .unwrap_or_default();
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|&r| engine.serves(r))
+            .collect();
         let replies = session
             .get(keys.states_of_routes(&held))
             .consolidation(zenoh::query::ConsolidationMode::None)

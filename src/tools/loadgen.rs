@@ -43,7 +43,13 @@ pub struct LoadOptions {
     /// Inputs on their routed keys, and batched for the routes' standby members
     /// ([`super::routed`]): how a fleet scales.
     pub routed: bool,
+    /// Each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as
+    /// independent vehicles send, instead of every vehicle's at the start of each period (a burst).
+    pub spread: bool,
 }
+
+/// With `spread`, vehicles sent together (the sender's timer has a resolution of about 1 ms).
+const SPREAD_SLOT: usize = 8;
 
 /// The report (`--json` prints it as one object).
 #[derive(Clone, Debug, Serialize)]
@@ -461,6 +467,13 @@ pub async fn run(
             continue;
         }
         for i in 0..ids.len() {
+            if options.spread && i % SPREAD_SLOT == 0 {
+                // Vehicle i's messages at its own phase of the period, a slot of vehicles at a time.
+                let at = due + period.mul_f64(i as f64 / ids.len() as f64);
+                if Instant::now() < at {
+                    tokio::time::sleep_until(at.into()).await;
+                }
+            }
             let payload = serde_json::to_vec(&star_set(t, i)).unwrap_or_default();
             pending[i]
                 .lock()

@@ -143,7 +143,7 @@ fn member(
     Outputs,
 ) {
     let mut config = service_config(
-        r#"{ service: { key_prefix: "t", filter: { kind: "mekf" }, time: { reorder_window_s: 0.0 } } }"#,
+        r#"{ service: { key_prefix: "t", filter: { kind: "mekf" }, time: { reorder_window_s: 0.0 }, fleet: { flush_s: 0.02 } } }"#,
     );
     override_fleet(&mut config, true, None, Some(name.into()), None).unwrap();
     collecting_engine(config)
@@ -233,7 +233,7 @@ fn a_member_takes_over_without_losing_a_set() {
     )
     .unwrap();
     // a's last estimates may have come after the last relay of the wait, and a sends its routes'
-    // standby members its estimates every fleet.flush_s (20 ms): b must have them all.
+    // standby members their last estimates every fleet.flush_s (20 ms here): b must have them all.
     std::thread::sleep(Duration::from_millis(100));
     relay(&mut relayed);
     // Each vehicle was processed by its owner only.
@@ -295,6 +295,8 @@ fn the_shipped_fleet_instance_configuration_is_valid() {
         (r#"{service:{fleet:{instance:"a/b"}}}"#, "fleet.instance"),
         (r#"{service:{fleet:{vehicles:"a/b"}}}"#, "fleet.vehicles"),
         (r#"{service:{fleet:{standby_s:-1}}}"#, "fleet.standby_s"),
+        (r#"{service:{fleet:{routes:"g"}}}"#, "fleet.routes"),
+        (r#"{service:{fleet:{flush_s:0}}}"#, "fleet.flush_s"),
     ] {
         let e = parse(bad, "test").err().expect(bad).to_string();
         assert!(e.contains(what), "{bad}: {e}");

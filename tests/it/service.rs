@@ -418,6 +418,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         imu_batch: 0,
         covering: false,
         routed: false,
+        spread: false,
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();
@@ -427,6 +428,20 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         "{r:?}"
     );
     assert!(r.p50_us > 0.0 && r.p99_us >= r.p50_us && r.max_us >= r.p99_us);
+    // Routed inputs (P/V/<leaf>/<r>, and their batches, which a single instance ignores), spread
+    // over the period: the same.
+    let routed = LoadOptions {
+        routed: true,
+        spread: true,
+        vehicle_prefix: "lgr".into(),
+        ..options.clone()
+    };
+    let r = run(&h.client, &keys, &routed, "service").await.unwrap();
+    assert_eq!(
+        (r.sent, r.estimates, r.lost, r.rejected),
+        (60, 60, 0, 0),
+        "{r:?}"
+    );
     // The bare round trip through the echo, measured the same way on another prefix.
     let echo_keys = Keys::new("echo-test");
     let _echo = echo(&h.client, &echo_keys).await.unwrap();

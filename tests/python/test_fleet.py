@@ -28,7 +28,7 @@ import zenoh
 from scipy.stats import chi2
 
 from conftest import BIN, ROOT, Collector, free_port, wait_until
-from attitude_client import AttitudeClient
+from attitude_client import AttitudeClient, route_of
 from sim import Scenario, angle_error_deg, attitude_nees, axis_errors_rad
 
 #: The shipped example configurations are what runs (the routers are the test's own, so is the prefix).
@@ -334,21 +334,25 @@ def test_fleet_through_routers(fleet_dir):
 
 def test_static_sharding(fleet_dir):
     """Two instances split the vehicles by key expression (`--vehicles 'a$*'` / `'b$*'`): each receives,
-    tracks and answers for its own only; a wildcard get sees every vehicle once."""
-    ports = [free_port(), free_port()]
+    tracks and answers for its own only; a wildcard get sees every vehicle once. Two more split them by
+    route (`--routes 0-7` / `8-f`, inputs on routed keys): each tracks exactly the vehicles of its routes."""
+    ports = [free_port() for _ in range(4)]
     eps = [f"tcp/127.0.0.1:{p}" for p in ports]
     procs = []
     try:
-        for name, pattern, ep in [("sa", "a$*", eps[0]), ("sb", "b$*", eps[1])]:
+        for name, shard, ep in [
+            ("sa", ["--vehicles", "a$*"], eps[0]),
+            ("sb", ["--vehicles", "b$*"], eps[1]),
+            ("r1", ["--routes", "0-7"], eps[2]),
+            ("r2", ["--routes", "8-f"], eps[3]),
+        ]:
             config = {
                 "zenoh": {"mode": "peer", "listen": {"endpoints": [ep]}, "scouting": {"multicast": {"enabled": False}}},
-                "service": {"key_prefix": PREFIX, "filter": {"kind": "mekf"}},
+                "service": {"key_prefix": PREFIX if name.startswith("s") else "routes", "filter": {"kind": "mekf"}},
             }
             path = fleet_dir / f"{name}.json5"
             path.write_text(json.dumps(config))
-            procs.append(
-                Proc(name, [str(BIN), "serve", "--config", str(path), "--instance", name, "--vehicles", pattern], fleet_dir)
-            )
+            procs.append(Proc(name, [str(BIN), "serve", "--config", str(path), "--instance", name, *shard], fleet_dir))
         c = zenoh.Config()
         c.insert_json5("mode", '"peer"')
         c.insert_json5("connect/endpoints", json.dumps(eps))
@@ -373,6 +377,26 @@ def test_static_sharding(fleet_dir):
             ("sb", "b$*", 2),
         ]
         cl.close()
+
+        # By route: every vehicle goes to the instance serving its route.
+        rc = AttitudeClient(eps[2], prefix="routes", config=c, routed=True)
+        wait_until(lambda: len(owners(rc)) == 2, 20, "both route shards answering")
+        ids = [f"rv{i}" for i in range(12)]
+        want = {
+            "r1": sorted(v for v in ids if route_of(v) < 8),
+            "r2": sorted(v for v in ids if route_of(v) >= 8),
+        }
+        assert want["r1"] and want["r2"], want
+        for i, v in enumerate(ids):
+            s = Scenario(seed=i, duration_s=2.0)
+            for ch in s.chunks():
+                rc.publish_gyro_batch(v, [(t, list(w)) for t, w in ch.gyro])
+                rc.publish_vectors(v, ch.t, [{"body": list(b), "ref": list(r), "sigma": sg} for b, r, sg, _ in ch.obs])
+        wait_until(lambda: owners(rc) == want, 10, "each route shard to track the vehicles of its routes")
+        assert attitude_replies(rc) == sorted(ids)
+        routes = {h["fleet"]["instance"]: h["fleet"]["routes_owned"] for h in rc.instances().values()}
+        assert routes == {"r1": list(range(8)), "r2": list(range(8, 16))}
+        rc.close()
     finally:
         for p in procs:
             assert p.stop() == 0

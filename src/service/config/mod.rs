@@ -4,7 +4,7 @@
 
 mod raw;
 
-use super::fleet::{default_instance_name, FleetConfig, FleetMode};
+use super::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
 use super::keys::{Keys, Leaf};
 pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::{AccConfig, AhrsConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig};
@@ -471,6 +471,13 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     })
 }
 
+/// Applies `serve --routes` over the file's `service.fleet.routes`.
+pub fn override_routes(config: &mut ServiceConfig, routes: &str) -> Result<(), String> {
+    config.fleet.routes =
+        parse_routes(routes).map_err(|e| format!("service.fleet.routes '{routes}': {e}"))?;
+    Ok(())
+}
+
 /// Applies the command line's fleet options (`serve --fleet --group --instance --vehicles`) over the
 /// file's, validated like the file's.
 pub fn override_fleet(
@@ -486,6 +493,7 @@ pub fn override_fleet(
         group: group.unwrap_or_else(|| f.group.clone()),
         instance: Some(instance.unwrap_or_else(|| f.instance.clone())),
         vehicles: vehicles.unwrap_or_else(|| f.vehicles.clone()),
+        routes: routes_text(f.routes),
         standby_s: f.standby_s,
         standby_bytes: f.standby_bytes,
         flush_s: f.flush_s,
@@ -535,6 +543,8 @@ fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
             "service.fleet.vehicles '{vehicles}' must be one chunk of a key expression (e.g. *, a$*, sc1)"
         ));
     }
+    let routes = parse_routes(&raw.routes)
+        .map_err(|e| format!("service.fleet.routes '{}': {e}", raw.routes))?;
     if !(raw.standby_s.is_finite() && raw.standby_s >= 0.0) {
         return Err("service.fleet.standby_s must be finite and non-negative".into());
     }
@@ -552,6 +562,7 @@ fn validate_fleet(prefix: &str, raw: RawFleet) -> Result<FleetConfig, String> {
         group: raw.group,
         instance,
         vehicles,
+        routes,
         standby_s: raw.standby_s,
         standby_bytes: raw.standby_bytes,
         flush_s: raw.flush_s,

@@ -9,9 +9,14 @@
 //! owner changes) are kept per vehicle. A takeover uses both, each input once: for a while after it
 //! (`grace`, the longest a subscription takes to reach the senders) the route's inputs are checked
 //! against those already used, by a hash of their vehicle, leaf and bytes, whether they come one by
-//! one or in a batch.
+//! one or in a batch (senders send their batches at least every second).
 
 use super::*;
+
+/// How long after a takeover a route's inputs are checked against those already used, s: longer than a
+/// subscription takes to reach the senders plus a sender's interval between batches (at most 1 s; the
+/// senders here send every 0.25 s).
+pub const TAKEOVER_GRACE_S: f64 = 2.0;
 
 /// A route's standby data (kept while held and not owned) and its takeover's memory.
 #[derive(Default)]
@@ -82,20 +87,27 @@ impl Engine {
     }
 
     /// Whether this instance processes and answers for `vehicle` (any string: a wildcard chunk is
-    /// owned too, so exactly one member refuses a wildcard put): in its shard and, in a dynamic fleet,
-    /// the owner of its route.
+    /// owned too, so exactly one member refuses a wildcard put): in its shard (its vehicle pattern and
+    /// its routes) and, in a dynamic fleet, the owner of its route.
     pub fn owns(&self, vehicle: &str) -> bool {
-        if !self.in_shard(vehicle) {
-            return false;
-        }
-        match self.config.fleet.mode {
-            FleetMode::Single => true,
-            FleetMode::Dynamic => self.owns_route(route_of(vehicle)),
-        }
+        self.in_shard(vehicle) && self.owns_route(route_of(vehicle))
     }
 
-    /// Whether this instance owns `route` (dynamic mode; always in single mode).
+    /// Whether this instance (or its group) serves `route` (`fleet.routes`).
+    pub fn serves(&self, route: u8) -> bool {
+        self.config.fleet.routes & (1 << route) != 0
+    }
+
+    /// The assignment of the routes served among `members`.
+    fn assign(&self, members: &BTreeSet<String>) -> Option<Arc<Assignment>> {
+        Assignment::of_routes(members, self.config.fleet.routes).map(Arc::new)
+    }
+
+    /// Whether this instance owns `route`: one it serves, and in a dynamic fleet one assigned to it.
     pub fn owns_route(&self, route: u8) -> bool {
+        if !self.serves(route) {
+            return false;
+        }
         if !self.dynamic() {
             return true;
         }
@@ -110,7 +122,7 @@ impl Engine {
     /// Whether this instance keeps `route`'s standby data: it holds the route, now or once joined,
     /// and does not own it.
     fn keeps(&self, route: u8) -> bool {
-        if !self.dynamic() || self.owns_route(route) {
+        if !self.dynamic() || !self.serves(route) || self.owns_route(route) {
             return false;
         }
         let me = self.me();
@@ -164,7 +176,7 @@ impl Engine {
             let routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
             routes.iter().map(|r| r.grace_until >= now).collect()
         };
-        for r in 0..ROUTES as u8 {
+        for r in (0..ROUTES as u8).filter(|&r| self.serves(r)) {
             if current.as_ref().is_some_and(|a| a.owns(me, r)) {
                 p.owned.push(r);
                 if grace[r as usize] {
@@ -192,7 +204,7 @@ impl Engine {
             .fleet
             .prepared
             .write()
-            .unwrap_or_else(|e| e.into_inner()) = Assignment::new(members).map(Arc::new);
+            .unwrap_or_else(|e| e.into_inner()) = self.assign(members);
         self.publish_plan();
     }
 
@@ -406,7 +418,8 @@ impl Engine {
     }
 
     /// Keeps a serialised estimate for the next batch to its route's standby members, when this
-    /// instance owns the route and the route has any.
+    /// instance owns the route and the route has any: the last of each vehicle (a takeover starts from
+    /// the last one; those before it are not needed).
     pub(super) fn batch_estimate(&self, vehicle: &str, payload: &[u8]) {
         let route = route_of(vehicle);
         let mut out = self
@@ -414,7 +427,18 @@ impl Engine {
             .outgoing
             .lock()
             .unwrap_or_else(|e| e.into_inner());
-        out[route as usize].push(vehicle, Leaf::Estimate.as_str(), payload);
+        let pending = &mut out[route as usize];
+        // (The vehicle's buffer is reused: no allocation per estimate.)
+        match pending.get_mut(vehicle) {
+            Some((fresh, buf)) => {
+                *fresh = true;
+                buf.clear();
+                buf.extend_from_slice(payload);
+            }
+            None => {
+                pending.insert(vehicle.to_string(), (true, payload.to_vec()));
+            }
+        }
     }
 
     /// Whether the estimates of `vehicle` go to standby members too (dynamic mode, a route with some).
@@ -437,11 +461,22 @@ impl Engine {
                 .outgoing
                 .lock()
                 .unwrap_or_else(|e| e.into_inner());
-            out.iter_mut()
-                .enumerate()
-                .filter(|(_, w)| !w.is_empty())
-                .map(|(r, w)| (r as u8, w.take()))
-                .collect()
+            let mut batches = Vec::new();
+            for (r, pending) in out.iter_mut().enumerate() {
+                let mut w = BatchWriter::default();
+                for (vehicle, (fresh, buf)) in pending.iter_mut().filter(|(_, (f, _))| *f) {
+                    w.push(vehicle, Leaf::Estimate.as_str(), buf);
+                    *fresh = false;
+                }
+                if !w.is_empty() {
+                    batches.push((r as u8, w.take()));
+                }
+                // (Vehicles gone from the route: their buffers go too.)
+                if pending.len() > 2 * self.vehicles.read().map(|m| m.len()).unwrap_or(0) + 64 {
+                    pending.retain(|v, _| self.vehicle(v).is_some());
+                }
+            }
+            batches
         };
         for (r, b) in batches {
             (self.sink)(&self.keys.standby_estimates(r, &self.config.fleet.group), b);
@@ -453,7 +488,7 @@ impl Engine {
     /// over the routes it now owns, and drops the standby data of the routes it no longer keeps.
     pub fn set_members(&self, members: BTreeSet<String>) {
         let changed = self.members().as_ref() != Some(&members);
-        let new = Assignment::new(&members).map(Arc::new);
+        let new = self.assign(&members);
         *self
             .fleet
             .members
@@ -484,7 +519,7 @@ impl Engine {
                 self.release(&v);
             }
         }
-        for r in 0..ROUTES as u8 {
+        for r in (0..ROUTES as u8).filter(|&r| self.serves(r)) {
             let now_owned = new.as_ref().is_some_and(|a| a.owns(&me, r));
             let was_owned = old.as_ref().is_some_and(|a| a.owns(&me, r));
             if now_owned && !was_owned {
@@ -538,7 +573,7 @@ impl Engine {
     /// used until the grace ends.
     fn take_over_route(&self, route: u8) {
         let now = self.now_s();
-        let grace = self.config.fleet.standby_s.max(2.0);
+        let grace = TAKEOVER_GRACE_S;
         let (batches, estimates) = {
             let mut routes = self.fleet.routes.lock().unwrap_or_else(|e| e.into_inner());
             let rs = &mut routes[route as usize];

@@ -242,8 +242,9 @@ struct FleetState {
     /// Per route: its standby data (the senders' batches of its inputs, its owner's last estimates)
     /// while held, and after a takeover the inputs already used.
     routes: Mutex<Vec<fleet::RouteStandby>>,
-    /// Per route owned: the estimates published since the last batch to its standby members.
-    outgoing: Mutex<Vec<BatchWriter>>,
+    /// Per route owned: each vehicle's last estimate, and whether it was published since the last
+    /// batch to the route's standby members.
+    outgoing: Mutex<Vec<HashMap<String, (bool, Vec<u8>)>>>,
     /// The routes to subscribe to, for the service (`service::run`).
     plan: Option<tokio::sync::watch::Sender<RoutePlan>>,
     takeovers: AtomicU64,

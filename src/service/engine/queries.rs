@@ -33,9 +33,10 @@ impl Engine {
         let (standby_inputs, standby_estimates, standby_bytes) = self.standby_counts();
         let me = f.instance.as_str();
         let assignment = self.assignment();
+        let served = |r: &u8| self.serves(*r);
         let routes = |of: &dyn Fn(&Assignment) -> Vec<u8>| match (f.mode, &assignment) {
-            (FleetMode::Single, _) => (0..ROUTES as u8).collect(),
-            (FleetMode::Dynamic, Some(a)) => of(a),
+            (FleetMode::Single, _) => (0..ROUTES as u8).filter(served).collect(),
+            (FleetMode::Dynamic, Some(a)) => of(a).into_iter().filter(served).collect(),
             (FleetMode::Dynamic, None) => Vec::new(),
         };
         FleetHealthMsg {
