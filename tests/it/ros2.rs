@@ -125,8 +125,8 @@ fn an_imu_message_takes_the_path_of_p_v_imu() {
     assert_eq!(m.header.stamp, Stamp::from_seconds(t));
     assert_eq!(m.header.frame_id, "imu_link");
     assert_eq!(m.linear_acceleration, acc);
-    for i in 0..3 {
-        assert_eq!(m.angular_velocity[i], gyr[i] - e.bias[i]);
+    for (i, g) in gyr.iter().enumerate() {
+        assert_eq!(m.angular_velocity[i], g - e.bias[i]);
         assert_eq!(
             m.angular_velocity_covariance[4 * i],
             1e-6 + e.cov[3 + i][3 + i]

@@ -185,6 +185,7 @@ impl Edge {
     /// Decodes one input into `out` (dispatcher thread): an Imu message is one `Measurement::Imu`
     /// (with the magnetometer reading paired with it), a MagneticField message none (it waits for
     /// its IMU sample). Nothing is appended on a fault.
+    #[allow(clippy::too_many_arguments)]
     pub fn decode(
         &self,
         vehicle: &str,
