@@ -37,6 +37,11 @@ PACKAGES=(
   # xxhash for rmw_zenoh's GIDs (XXH3-128).
   "rosbags==0.11.9"
   "xxhash==3.6.0"
+  # A second independent ROS 2-over-Zenoh client (tests/python/test_ros2_sdk.py) and its dependencies.
+  "zenoh-ros2-sdk==0.1.8"
+  "GitPython==3.2.1"
+  "json5==0.17.3"
+  "tqdm==4.70.1"
 )
 
 if [[ ! -x "$PY" ]]; then
