@@ -9,6 +9,7 @@ pub mod engine;
 pub mod fleet;
 pub mod keys;
 pub mod persist;
+pub mod ros2;
 pub mod session;
 /// One vehicle (the state machine of the numeric core).
 pub use attitude_core::vehicle;
@@ -110,6 +111,13 @@ pub async fn run(
         .callback(callback.clone())
         .await
         .map_err(zerr)?;
+    // The ROS 2 edge (service.ros2): its inputs go through the same callback.
+    let ros2 = match engine.ros2() {
+        Some(edge) => {
+            Some(ros2::net::start(&session, &engine, edge.clone(), callback.clone()).await?)
+        }
+        None => None,
+    };
     // A dynamic fleet member also follows the others' estimates (where a takeover starts), then
     // joins: see `join_fleet`.
     let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
@@ -222,6 +230,9 @@ pub async fn run(
     let _ = gyro.undeclare().await;
     let _ = vectors.undeclare().await;
     let _ = imu.undeclare().await;
+    if let Some(r) = ros2 {
+        r.stop().await;
+    }
     if let Some(e) = estimates {
         let _ = e.undeclare().await;
     }

@@ -7,16 +7,19 @@
 //! `[δα (rad, body axes); δβ (rad/s)]`.
 
 mod admin;
+pub mod cdr;
 mod input;
 mod output;
 mod rejection;
 mod reset;
+mod ros2;
 
 pub use admin::*;
 pub use input::*;
 pub use output::*;
 pub use rejection::*;
 pub use reset::*;
+pub use ros2::*;
 
 #[cfg(test)]
 mod tests {

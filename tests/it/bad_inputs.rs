@@ -90,7 +90,16 @@ struct Row {
     /// propagated to.
     #[serde(default)]
     propagated_to: Option<f64>,
+    /// The DDS type name and type hash chunks of a ROS 2 row's key, when not its topic's.
+    #[serde(default)]
+    ros2_type: Option<String>,
+    #[serde(default)]
+    ros2_hash: Option<String>,
 }
+
+/// The Jazzy type hashes of the ROS 2 rows' topics (as rosbags computes them; tests/python/test_ros2.py).
+const IMU_HASH: &str = "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b";
+const MAG_HASH: &str = "RIHS01_e80f32f56a20486c9923008fc1a1db07bbb273cbbf6a5b3bfa00835ee00e4dff";
 
 impl Row {
     fn target(&self) -> &str {
@@ -101,10 +110,29 @@ impl Row {
         self.leaf == "reset"
     }
 
-    /// The healthy vehicle's feed: the row's `healthy`, else IMU samples for the rows of leaf `imu`.
+    /// The key a row's input is put on: `P/V/<leaf>`, or rmw_zenoh's key of the vehicle's ROS 2 topic.
+    fn input_key(&self, vehicle: &str) -> String {
+        let (topic, ty, hash) = match self.leaf.as_str() {
+            "ros2_imu" => ("imu/data_raw", "sensor_msgs::msg::dds_::Imu_", IMU_HASH),
+            "ros2_mag" => (
+                "imu/mag",
+                "sensor_msgs::msg::dds_::MagneticField_",
+                MAG_HASH,
+            ),
+            leaf => return format!("{PREFIX}/{vehicle}/{leaf}"),
+        };
+        format!(
+            "0/{vehicle}/{topic}/{}/{}",
+            self.ros2_type.as_deref().unwrap_or(ty),
+            self.ros2_hash.as_deref().unwrap_or(hash)
+        )
+    }
+
+    /// The healthy vehicle's feed: the row's `healthy`, else IMU samples for the rows of leaf `imu`
+    /// (and the ROS 2 rows).
     fn feed(&self) -> Feed {
         match (self.healthy.as_deref(), self.leaf.as_str()) {
-            (Some("imu"), _) | (None, "imu") => Feed::Imu,
+            (Some("imu"), _) | (None, "imu" | "ros2_imu" | "ros2_mag") => Feed::Imu,
             _ => Feed::Gyro,
         }
     }
@@ -147,8 +175,8 @@ fn rows() -> Vec<Row> {
             r.id
         );
         assert!(
-            ["gyro", "vectors", "imu", "reset"].contains(&r.leaf.as_str()),
-            "{}: leaf {:?} (gyro, vectors, imu, reset)",
+            ["gyro", "vectors", "imu", "reset", "ros2_imu", "ros2_mag"].contains(&r.leaf.as_str()),
+            "{}: leaf {:?} (gyro, vectors, imu, reset, ros2_imu, ros2_mag)",
             r.id,
             r.leaf
         );
@@ -351,6 +379,8 @@ impl Run {
                 "filter": {"kind": "mekf"},
                 "workers": 2,
                 "limits": limits,
+                // (The ROS 2 rows' inputs; the edge changes nothing for the others.)
+                "ros2": {"enabled": true},
             }
         })
         .to_string();
@@ -576,7 +606,10 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             }
         }
     } else {
-        run.put(target, &row.leaf, row.payload());
+        run.engine.dispatch(Inbound {
+            key: row.input_key(target),
+            payload: row.payload(),
+        });
         run.wait(Duration::from_secs(10), |r| {
             !r.rejections_since(n0).is_empty()
         });
@@ -704,7 +737,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             fails.push(format!("a reset published rejections: {rejections:?}"));
         }
     } else {
-        let input_key = format!("{PREFIX}/{target}/{}", row.leaf);
+        let input_key = row.input_key(target);
         match rejections.as_slice() {
             [(k, m)] => {
                 if *k != format!("{PREFIX}/{target}/rejected") {

@@ -68,7 +68,9 @@ impl Engine {
         decoded: &mut Vec<Measurement>,
     ) -> Option<Arc<Vehicle>> {
         decoded.clear();
-        let (vehicle, leaf) = self.keys.split(&inbound.key)?;
+        let Some((vehicle, leaf)) = self.keys.split(&inbound.key) else {
+            return self.dispatch_ros2(inbound, decoded);
+        };
         if leaf == Leaf::Estimate {
             self.remember_estimate(vehicle, &inbound.payload);
             return None;
@@ -79,10 +81,23 @@ impl Engine {
             return None;
         }
         let result = self.decode(leaf, &inbound.payload, decoded)?;
+        self.queue(vehicle, &inbound.key, result, decoded)
+    }
+
+    /// Queues the measurements decoded from one input on its vehicle's inbox (creating the vehicle),
+    /// or refuses the input: the rejection of its decoding, an invalid vehicle id, too many vehicles,
+    /// a full inbox. Returns the vehicle to schedule.
+    pub(super) fn queue(
+        &self,
+        vehicle: &str,
+        key: &str,
+        result: Result<usize, Rejection>,
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
         let n = *result.as_ref().unwrap_or(&1) as u64;
         self.counters.received.fetch_add(n, Ordering::Relaxed);
         let refused = |r: &Rejection| {
-            self.reject(vehicle, &inbound.key, r);
+            self.reject(vehicle, key, r);
             None
         };
         if let Err(r) = validate_vehicle_id(vehicle) {
