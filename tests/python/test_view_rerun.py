@@ -47,7 +47,7 @@ DURATION_S = 30
 
 
 def read_rrd(path: Path) -> tuple[dict[str, list[dict]], dict[str, list[dict]]]:
-    """``(recording, blueprint)``: per entity path its rows in logging order (row ids), each ``{column: value}`` with
+    """``(recording, the last blueprint)``: per entity path its rows in logging order (row ids), each ``{column: value}`` with
     timelines as int64 (ns for ``wall`` and ``t``) and ``static``."""
 
     def rows_of(stream) -> dict[str, list[dict]]:
@@ -73,7 +73,26 @@ def read_rrd(path: Path) -> tuple[dict[str, list[dict]], dict[str, list[dict]]]:
     assert recording.application_id == view_rerun.APPLICATION_ID
     blueprints = reader.blueprints()
     assert blueprints, "the view sent no blueprint"
-    return rows_of(reader.stream(store=recording)), rows_of(RrdReader(path).stream(store=blueprints[-1]))
+    # The view sends its blueprint again when vehicles appear, each time a new blueprint store: the last sent counts.
+    stores = [rows_of(RrdReader(path).stream(store=b)) for b in blueprints]
+    latest = max(stores, key=lambda rows: max(r["rerun.controls.RowId"] for rs in rows.values() for r in rs))
+    return rows_of(reader.stream(store=recording)), latest
+
+
+_META = {"rerun.controls.RowId", "wall", "t", "seq", "static"}
+
+
+def messages(rows: list[dict]) -> dict[int, dict]:
+    """The rows of a message entity (``/V/<leaf>``, ``AnyValues``) by ``seq``: ``{field: value}`` (a field's batch
+    has one value), with the timelines ``t`` (ns) and ``wall``."""
+    out = {}
+    for r in rows:
+        if r["static"]:
+            continue
+        msg = {k: v[0] for k, v in r.items() if k not in _META and v is not None}
+        msg.update(t_ns=r.get("t"), wall=r["wall"])
+        out[r.get("seq")] = msg
+    return out
 
 
 def scalars(rows: list[dict]) -> list[list[float]]:
@@ -208,20 +227,33 @@ def test_the_servers_listen_on_the_loopback_and_serve_the_web_viewer(run):
 def test_the_entities(run):
     rec = run["recording"]
     for v in VEHICLES:
-        for field in ("q", "euler_deg", "sigma_deg", "three_sigma_deg", "bias_deg_h", "rate_hz", "received"):
-            assert f"/{v}/attitude/{field}" in rec, (v, field)
-        for field in ("error_deg", "plus_3sigma_deg", "minus_3sigma_deg", "angle_deg", "within_3sigma", "nees",
-                      "truth_q"):
-            assert f"/{v}/error/{field}" in rec, (v, field)
-        for field in ("updates", "propagations", "reinits", "gated", "rollbacks", "held", "rejected"):
-            assert f"/{v}/diagnostics/{field}" in rec, (v, field)
+        for leaf in ("attitude", "error", "diagnostics"):
+            assert f"/{v}/{leaf}" in rec, (v, leaf)
+        for leaf, fields in view_rerun.PLOTTED.items():
+            for field in fields:
+                if field == "ess" and not FILTERS[v].startswith("qpf"):
+                    continue
+                assert f"/{v}/{leaf}/{field}" in rec, (v, leaf, field)
         for sub in ("estimate", "estimate/body", "estimate/axes", "truth", "truth/axes", "label"):
             assert f"/world/{v}/{sub}" in rec, (v, sub)
+        # Each message entity has the fields of its Foxglove topic's schema (objects flattened; vehicle, t and seq
+        # are the path and the timelines).
+        for leaf in ("attitude", "error", "diagnostics"):
+            schema = view_module.schemas()[leaf]
+            required = set()
+            for name in schema["required"]:
+                sub = schema["properties"][name]
+                if name in ("vehicle", "t", "seq"):
+                    continue
+                required |= {f"{name}.{k}" for k in sub["required"]} if sub.get("type") == "object" else {name}
+            for msg in messages(rec[f"/{v}/{leaf}"]).values():
+                assert required <= set(msg), (v, leaf, required - set(msg))
     assert "/summary" in rec and "/world" in rec
     # No rejection for sc1..sc3: their total is zero from the start (every vehicle has its line in the plot).
     for v in ("sc1", "sc2", "sc3"):
         assert [e for e in rec if e.startswith(f"/{v}/rejections")] == [f"/{v}/rejections/total"]
-        assert scalars(rec[f"/{v}/rejections/total"]) == [[0.0]]
+        totals = scalars(rec[f"/{v}/rejections/total"])
+        assert len(totals) > 2 and set(map(tuple, totals)) == {(0.0,)}  # repeated with the summary
     # Nothing else: the vehicles' entities, the scene, the summary and the recording's properties.
     others = [e for e in rec if not re.match(r"/(sc[1-4]/|world|summary$|__properties)", e)]
     assert others == []
@@ -231,29 +263,29 @@ def test_each_vehicle_shows_the_services_estimates(run):
     rec, final = run["recording"], run["final"]
     est = {(e["vehicle"], e["seq"]): e for e in run["estimates"]}
     for v in VEHICLES:
-        q = by_seq(rec[f"/{v}/attitude/q"])
-        seqs = list(q)
+        shown = messages(rec[f"/{v}/attitude"])
+        seqs = list(shown)
         # --max-rate 0: every estimate, in order, each the service's own.
         assert seqs == list(range(seqs[0], seqs[-1] + 1)) and seqs[-1] == final[v]["seq"], seqs
         assert seqs[-1] - seqs[0] >= DURATION_S
-        for row in [r for r in rec[f"/{v}/attitude/q"] if not r["static"]]:
-            e = est[(v, row["seq"])]
-            assert row["Scalars:scalars"] == [e["q"][k] for k in "wxyz"]
-            assert row["t"] == round(e["t"] * 1e9)  # the `t` timeline: the estimate's time
-        sigma = by_seq(rec[f"/{v}/attitude/sigma_deg"])
-        three = by_seq(rec[f"/{v}/attitude/three_sigma_deg"])
-        euler = by_seq(rec[f"/{v}/attitude/euler_deg"])
-        bias = by_seq(rec[f"/{v}/attitude/bias_deg_h"])
-        last = final[v]
-        assert sigma[seqs[-1]] == last["sigma_deg"]
-        assert three[seqs[-1]] == [3.0 * s for s in last["sigma_deg"]]
-        assert bias[seqs[-1]] == pytest.approx(np.degrees(last["bias"]) * 3600.0, rel=1e-12)
-        for s in seqs:
-            yaw, pitch, roll = to_rotation(est[(v, s)]["q"]).as_euler("ZYX", degrees=True)
+        euler, three_plot = by_seq(rec[f"/{v}/attitude/euler_deg"]), by_seq(rec[f"/{v}/attitude/three_sigma_deg"])
+        assert list(euler) == seqs and list(three_plot) == seqs
+        for s, m in shown.items():
+            e = est[(v, s)]
+            assert [m[f"q.{k}"] for k in "wxyz"] == [e["q"][k] for k in "wxyz"]
+            assert m["t_ns"] == round(e["t"] * 1e9)  # the `t` timeline: the estimate's time
+            assert [m[f"sigma_deg.{a}"] for a in "xyz"] == e["sigma_deg"]
+            assert [m[f"three_sigma_deg.{a}"] for a in "xyz"] == three_plot[s] == [3.0 * x for x in e["sigma_deg"]]
+            yaw, pitch, roll = to_rotation(e["q"]).as_euler("ZYX", degrees=True)
+            assert [m[f"euler_deg.{k}"] for k in ("roll", "pitch", "yaw")] == euler[s]
             assert euler[s] == pytest.approx([roll, pitch, yaw], abs=1e-9)
-        assert scalars(rec[f"/{v}/attitude/received"])[-1][0] >= len(seqs)
+            assert m["filter"] == FILTERS[v]
+        last = shown[seqs[-1]]
+        assert [last[f"bias_deg_h.{a}"] for a in "xyz"] == pytest.approx(np.degrees(final[v]["bias"]) * 3600.0,
+                                                                            rel=1e-12)
+        assert last["received"] >= len(seqs)
         # The wall timeline never goes back.
-        walls = [r["wall"] for r in rec[f"/{v}/attitude/q"] if not r["static"]]
+        walls = [m["wall"] for m in shown.values()]
         assert walls == sorted(walls) and abs(walls[-1] / 1e9 - time.time()) < 300
 
 
@@ -262,26 +294,29 @@ def test_each_error_is_the_estimate_against_the_truth_at_its_time(run):
     truth = {(m["vehicle"], m["t"]): m for m in run["truths"]}
     est = {(e["vehicle"], e["seq"]): e for e in run["estimates"]}
     for v in VEHICLES:
+        errors = messages(rec[f"/{v}/error"])
         err = by_seq(rec[f"/{v}/error/error_deg"])
         plus, minus = by_seq(rec[f"/{v}/error/plus_3sigma_deg"]), by_seq(rec[f"/{v}/error/minus_3sigma_deg"])
-        nees, angle = by_seq(rec[f"/{v}/error/nees"]), by_seq(rec[f"/{v}/error/angle_deg"])
-        inside_rows = by_seq(rec[f"/{v}/error/within_3sigma"])
-        shown = by_seq(rec[f"/{v}/attitude/q"])
+        assert list(err) == list(plus) == list(minus) == list(errors)
+        shown = messages(rec[f"/{v}/attitude"])
         # One error per estimate of the simulation (its truth comes first); at t = 0 the resets have one at most.
         assert len([s for s in err if est[(v, s)]["t"] > 0]) == len([s for s in shown if est[(v, s)]["t"] > 0])
         assert len(err) >= DURATION_S
         inside = 0
-        for s, values in err.items():
+        for s, m in errors.items():
             e = est[(v, s)]
             q_true = to_rotation(truth[(v, e["t"])]["q"])
             expected = np.degrees(axis_errors_rad(q_true, e["q"]))
-            assert values == pytest.approx(expected, abs=1e-9)
+            assert err[s] == [m[f"error_deg.{a}"] for a in "xyz"]
+            assert err[s] == pytest.approx(expected, abs=1e-9)
             three = [3.0 * x for x in e["sigma_deg"]]
             assert plus[s] == three and minus[s] == [-x for x in three]
-            assert nees[s] == [pytest.approx(attitude_nees(q_true, e), rel=1e-9)]
-            assert angle[s] == [pytest.approx(np.degrees((to_rotation(e["q"]).inv() * q_true).magnitude()), abs=1e-9)]
-            assert inside_rows[s] == [float(all(abs(x) <= t for x, t in zip(expected, three)))]
-            inside += inside_rows[s][0]
+            assert m["nees"] == pytest.approx(attitude_nees(q_true, e), rel=1e-9)
+            assert m["angle_deg"] == pytest.approx(np.degrees((to_rotation(e["q"]).inv() * q_true).magnitude()),
+                                                   abs=1e-9)
+            assert m["within_3sigma"] == all(abs(x) <= t for x, t in zip(expected, three))
+            assert [m[f"truth_q.{k}"] for k in "wxyz"] == [truth[(v, e["t"])]["q"][k] for k in "wxyz"]
+            inside += m["within_3sigma"]
         assert inside >= 0.8 * len(err), (v, inside, len(err))
 
 
@@ -289,33 +324,38 @@ def test_the_ess_of_the_particle_filters(run):
     rec = run["recording"]
     est = {(e["vehicle"], e["seq"]): e for e in run["estimates"]}
     for v in VEHICLES:
-        updates = by_seq(rec[f"/{v}/diagnostics/updates"])
-        assert set(updates) == set(by_seq(rec[f"/{v}/attitude/q"]))
-        for s, value in updates.items():
-            assert value == [est[(v, s)]["diagnostics"]["updates"]]
+        diags = messages(rec[f"/{v}/diagnostics"])
+        assert list(diags) == list(messages(rec[f"/{v}/attitude"]))
+        for s, m in diags.items():
+            d = est[(v, s)]["diagnostics"]
+            assert m["updates"] == d["updates"] and m["propagations"] == d["propagations"]
         if FILTERS[v].startswith("qpf"):
             ess = by_seq(rec[f"/{v}/diagnostics/ess"])
-            assert set(ess) == set(updates)
+            assert list(ess) == list(diags)
             for s, value in ess.items():
-                assert value == [est[(v, s)]["diagnostics"]["ess"]] and 1.0 <= value[0] <= PARTICLES
-            assert set(scalars(rec[f"/{v}/diagnostics/particles"])[-1]) == {PARTICLES}
+                d = est[(v, s)]["diagnostics"]
+                assert value == [d["ess"]] == [diags[s]["ess"]] and 1.0 <= value[0] <= PARTICLES
+                assert diags[s]["particles"] == PARTICLES and diags[s]["ess_fraction"] == d["ess"] / PARTICLES
             # The ESS plot names each vehicle's series after it.
             style = [r for r in rec[f"/{v}/diagnostics/ess"] if r["static"]]
             assert style and style[-1]["SeriesLines:names"] == [v]
         else:
-            assert f"/{v}/diagnostics/ess" not in rec and f"/{v}/diagnostics/particles" not in rec
+            assert f"/{v}/diagnostics/ess" not in rec
+            assert not any("ess" in m or "particles" in m for m in diags.values())
 
 
 def test_rejections_are_counted_by_code(run):
     rec = run["recording"]
-    assert scalars(rec["/sc4/rejections/total"])[0] == [0.0] and scalars(rec["/sc4/rejections/total"])[-1] == [2.0]
-    assert scalars(rec["/sc4/rejections/by_code/bad_request"])[-1] == [1.0]
-    assert scalars(rec["/sc4/rejections/by_code/out_of_order"])[-1] == [1.0]
-    codes = {e.rsplit("/", 1)[1] for e in rec if e.startswith("/sc4/rejections/by_code/")}
-    assert codes == set(view_module.REJECTION_CODES)
-    assert sum(scalars(rec[f"/sc4/rejections/by_code/{c}"])[-1][0] for c in codes) == 2
-    (last,) = _last(rec["/sc4/rejections/last"], "TextLog:text")
-    assert re.fullmatch(rf"(bad_request|out_of_order): .+ \({re.escape(PREFIX)}/sc4/gyro\)", last), last
+    totals = scalars(rec["/sc4/rejections/total"])
+    assert totals[0] == [0.0] and totals[-1] == [2.0]
+    last = list(messages(rec["/sc4/rejections"]).values())[-1]
+    assert last["total"] == 2 and last["by_code.bad_request"] == 1 and last["by_code.out_of_order"] == 1
+    assert {k.split(".", 1)[1] for k in last if k.startswith("by_code.")} == set(view_module.REJECTION_CODES)
+    assert sum(v for k, v in last.items() if k.startswith("by_code.")) == 2
+    assert last["last.code"] in ("bad_request", "out_of_order") and last["last.key"] == f"{PREFIX}/sc4/gyro"
+    lines = [r["TextLog:text"][0] for r in rec["/sc4/rejections/last"] if r.get("TextLog:text")]
+    assert len(lines) >= 1
+    assert re.fullmatch(rf"(bad_request|out_of_order): .+ \({re.escape(PREFIX)}/sc4/gyro\)", lines[-1]), lines
 
 
 def _last(rows: list[dict], column: str):

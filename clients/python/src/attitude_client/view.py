@@ -591,7 +591,7 @@ class View:
         else:
             text += f"\n3σ {3.0 * float(np.max(e.sigma_deg)):.3g}°"
         if e.ess is not None:
-            text += f"  ESS {e.ess:.0f}"
+            text += f"\nESS {e.ess:.0f}"  # a third line: the labels of neighbours stay apart
         return Pose(v.name, v.position(), np.asarray(e.q, dtype=float), v.truths.get(e.t), text, e.t, int(e.seq or 0))
 
     def _summary(self, now: float) -> dict:

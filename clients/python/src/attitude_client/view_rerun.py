@@ -13,9 +13,11 @@ The server. The view starts the ``rerun`` command-line tool of the rerun-sdk whe
 where ``--host`` says (127.0.0.1 by default), as the Foxglove sink does. The view then logs to the gRPC server
 (``RecordingStream.connect_grpc``) with its blueprint, so the layout opens ready.
 
-Entities. Per vehicle ``V``, every number of the Foxglove topic ``/V/<leaf>`` is a ``Scalars`` entity
-``/V/<leaf>/<field>`` (a vector ``{x, y, z}``, ``{roll, pitch, yaw}`` or ``{w, x, y, z}`` one entity of 3 or 4
-series; ``by_code`` an entity per code), and the last rejection a ``TextLog`` (``/V/rejections/last``). The 3D scene is
+Entities. Per vehicle ``V``, each message of the Foxglove topic ``/V/<leaf>`` is a row of the entity ``/V/<leaf>``
+(``AnyValues``: every field but ``vehicle``, ``t`` and ``seq``, objects flattened: ``q.w``, ``by_code.bad_request``); what the layout plots is also a
+``Scalars`` entity ``/V/<leaf>/<field>`` (a vector one entity of three series: ``error_deg``, ``plus_3sigma_deg``,
+``minus_3sigma_deg``, ``euler_deg``, ``three_sigma_deg``, ``ess``, the rejections' ``total``), and each rejection a
+``TextLog`` line (``/V/rejections/last``). Few entities: a viewer's cost grows with the rows it ingests. The 3D scene is
 ``/world`` (z up): ``/world/V/estimate`` (``Transform3D``: the estimate, the vehicle at its place on the grid) with a
 box and the body axes, ``/world/V/truth`` (the truth at the estimate's ``t``) with longer thin axes, and
 ``/world/V/label``. ``/summary`` is a Markdown table. Timelines: ``wall`` (the view's clock, as Foxglove's log time),
@@ -37,51 +39,50 @@ import numpy as np
 
 from .view import AXIS_RGB, DEMO_VEHICLES, GRID_COLUMNS, GRID_SPACING, Pose
 
-__all__ = ["APPLICATION_ID", "RerunServer", "RerunSink", "blueprint", "entity_series", "viewer_url"]
+__all__ = ["APPLICATION_ID", "PLOTTED", "RerunServer", "RerunSink", "blueprint", "flatten", "series", "viewer_url"]
 
 #: The recording's application id (a blueprint applies to the recordings of its application id).
 APPLICATION_ID = "attitude-view"
 
-#: Display names of the vectors' series (``<name> <axis>``), as the Foxglove layout's legends.
-_SERIES_PREFIX = {
-    "error_deg": "δα",
-    "plus_3sigma_deg": "+3σ",
-    "minus_3sigma_deg": "−3σ",
-    "three_sigma_deg": "3σ",
-    "sigma_deg": "σ",
-    "bias_deg_h": "bias",
-    "q": "q",
-    "truth_q": "truth q",
+#: The series plotted (the Foxglove layout's plots): ``Scalars`` entities ``/V/<leaf>/<field>``.
+PLOTTED = {
+    "attitude": ("euler_deg", "three_sigma_deg"),
+    "error": ("error_deg", "plus_3sigma_deg", "minus_3sigma_deg"),
+    "diagnostics": ("ess",),
+    "rejections": ("total",),
 }
+#: Display names of the vectors' series (``<name> <axis>``), as the Foxglove layout's legends.
+_SERIES_PREFIX = {"error_deg": "δα", "plus_3sigma_deg": "+3σ", "minus_3sigma_deg": "−3σ", "three_sigma_deg": "3σ"}
 #: Line widths (UI points) of the error plots: the error bold, its bounds thin.
 _WIDTHS = {"error_deg": 2.0, "plus_3sigma_deg": 1.0, "minus_3sigma_deg": 1.0}
 #: Single series plotted across vehicles, named and coloured by vehicle.
 _ACROSS = {("diagnostics", "ess"), ("rejections", "total")}
 _SERIES_COLOURS = ((78, 121, 167), (242, 142, 44), (225, 87, 89), (118, 183, 178), (89, 161, 79), (237, 201, 73),
                    (175, 122, 161), (255, 157, 167))
-_VECTORS = (("x", "y", "z"), ("roll", "pitch", "yaw"), ("w", "x", "y", "z"))
 _AXIS_RGB8 = [tuple(int(round(255 * c)) for c in rgb) for rgb in AXIS_RGB]
 
 
-def entity_series(leaf: str, message: dict) -> list[tuple[str, list[float], list[str]]]:
-    """The numbers of a view message (:func:`attitude_client.view.schemas`) as ``(field path, values, series
-    names)``: a number or boolean one series; a vector (``x y z``, ``roll pitch yaw``, ``w x y z``) one entity of
-    its components; another object of numbers an entity per key. ``vehicle``, ``t``, ``seq`` (the timelines) and text
-    are not series."""
-    out: list[tuple[str, list[float], list[str]]] = []
+def flatten(message: dict, prefix: str = "") -> dict[str, Any]:
+    """A view message with its objects flattened: ``{"q": {"w": 1}}`` → ``{"q.w": 1}`` (None left out)."""
+    out: dict[str, Any] = {}
     for key, value in message.items():
-        if key in ("vehicle", "t", "seq") or isinstance(value, str) or value is None:
-            continue
-        if isinstance(value, (bool, int, float)):
-            out.append((key, [float(value)], [key]))
-        elif isinstance(value, dict):
-            keys = tuple(value)
-            if keys in _VECTORS:
-                prefix = _SERIES_PREFIX.get(key, key)
-                out.append((key, [float(value[k]) for k in keys], [f"{prefix} {k}" for k in keys]))
-            elif value and all(isinstance(x, (bool, int, float)) for x in value.values()):
-                out += [(f"{key}/{k}", [float(x)], [k]) for k, x in value.items()]
+        if isinstance(value, dict):
+            out.update(flatten(value, f"{prefix}{key}."))
+        elif value is not None:
+            out[f"{prefix}{key}"] = value
     return out
+
+
+def series(message: dict, field: str) -> tuple[list[float], list[str]] | None:
+    """A plotted field of a message as ``(values, series names)``: a vector's components (``x y z``,
+    ``roll pitch yaw``) or a number; None when the message has none (the ESS of a Kalman filter)."""
+    value = message.get(field)
+    if value is None:
+        return None
+    if isinstance(value, dict):
+        prefix = _SERIES_PREFIX.get(field)
+        return [float(x) for x in value.values()], [f"{prefix} {k}" if prefix else k for k in value]
+    return [float(value)], [field]
 
 
 def viewer_url(web_port: int, grpc_port: int, host: str = "127.0.0.1") -> str:
@@ -134,8 +135,15 @@ def blueprint(vehicles: Sequence[str] = DEMO_VEHICLES, truth: bool = True) -> An
         right = rrb.Vertical(grid, across, row_shares=[72, 28])
     else:
         right = across
+    # The camera: the vehicles' grid from the front and above, its labels side by side.
+    n = max(1, len(vehicles))
+    rows = (n + GRID_COLUMNS - 1) // GRID_COLUMNS
+    cx, cy = GRID_SPACING * (min(n, GRID_COLUMNS) - 1) / 2.0, -GRID_SPACING * (rows - 1) / 2.0
+    d = 6.0 + 2.0 * min(n, GRID_COLUMNS)
+    eye = rrb.EyeControls3D(kind="Orbital", position=[cx, cy - 0.9 * d, 0.35 * d], look_target=[cx, cy, 0.5],
+                            eye_up=[0.0, 0.0, 1.0])
     left = rrb.Vertical(
-        rrb.Spatial3DView(name="attitude", origin="/world"),
+        rrb.Spatial3DView(name="attitude", origin="/world", eye_controls=eye),
         rrb.TextDocumentView(name="vehicles", origin="/summary"),
         row_shares=[68, 32],
     )
@@ -197,27 +205,33 @@ class RerunSink:
         self._style(vehicle, "rejections", "total", ["total"])
         self.rec.log(f"/{vehicle}/rejections/total", self.rr.Scalars([0.0]))
 
-    def _style(self, vehicle: str, leaf: str, path: str, names: list[str]) -> None:
-        entity = f"/{vehicle}/{leaf}/{path}"
+    def _style(self, vehicle: str, leaf: str, field: str, names: list[str]) -> None:
+        entity = f"/{vehicle}/{leaf}/{field}"
         if entity in self._styled:
             return
         self._styled.add(entity)
         rr = self.rr
-        if (leaf, path) in _ACROSS:
+        if (leaf, field) in _ACROSS:
             colour = _SERIES_COLOURS[self.seen.index(vehicle) % len(_SERIES_COLOURS)]
             style = rr.SeriesLines(names=[vehicle], colors=[colour], widths=[1.5])
-        elif len(names) == 3:
-            style = rr.SeriesLines(names=names, colors=_AXIS_RGB8, widths=[_WIDTHS.get(path, 1.5)] * 3)
         else:
-            style = rr.SeriesLines(names=names)
+            style = rr.SeriesLines(names=names, colors=_AXIS_RGB8[: len(names)],
+                                   widths=[_WIDTHS.get(field, 1.5)] * len(names))
         self.rec.log(entity, style, static=True)
 
     def publish(self, vehicle: str, leaf: str, message: dict, log_ns: int) -> None:
         rr = self.rr
         self._at(log_ns, message)
-        for path, values, names in entity_series(leaf, message):
-            self._style(vehicle, leaf, path, names)
-            self.rec.log(f"/{vehicle}/{leaf}/{path}", rr.Scalars(values))
+        # The whole message, one row (the selection panel and a dataframe view show its fields)...
+        # (`vehicle` is in the path, `t` and `seq` are timelines.)
+        fields = {k: v for k, v in flatten(message).items() if k not in ("vehicle", "t", "seq")}
+        self.rec.log(f"/{vehicle}/{leaf}", rr.AnyValues(**fields))
+        # ...and what is plotted as series of its own.
+        for field in PLOTTED.get(leaf, ()):
+            got = series(message, field)
+            if got is not None:
+                self._style(vehicle, leaf, field, got[1])
+                self.rec.log(f"/{vehicle}/{leaf}/{field}", rr.Scalars(got[0]))
         if leaf == "rejections" and message.get("last"):
             last = message["last"]
             self.rec.log(f"/{vehicle}/rejections/last",
@@ -242,12 +256,18 @@ class RerunSink:
                     self.rec.log(f"{base}/truth/axes", _axes(rr, 1.6, 0.012), static=True)
                 self.rec.log(f"{base}/truth", _transform(rr, p.position, p.truth))
             x, y, z = p.position
-            self.rec.log(f"{base}/label", rr.Points3D([[x, y, z + 1.9]], radii=[0.02], labels=[p.label],
-                                                      show_labels=True, colors=[(255, 255, 255)]))
+            # Every other column's label higher: Rerun draws labels at a fixed size, wider than the grid's spacing.
+            lift = 1.7 + 1.0 * (round(x / GRID_SPACING) % 2)
+            self.rec.log(f"{base}/label", rr.Points3D([[x, y, z + lift]], radii=[0.02], labels=[p.label],
+                                                      show_labels=True))
 
     def summary(self, message: dict, log_ns: int) -> None:
         self._at(log_ns)
         self.rec.log("/summary", self.rr.TextDocument(summary_markdown(message), media_type="text/markdown"))
+        # The rejection totals again (the summary's `rejected`, the same count): a plot draws a line through the
+        # points of a series, and a vehicle without rejections would otherwise have one point, at its start.
+        for row in message["vehicles"]:
+            self.rec.log(f"/{row['vehicle']}/rejections/total", self.rr.Scalars([float(row["rejected"])]))
         self.send_blueprint()
 
     def close(self) -> None:
