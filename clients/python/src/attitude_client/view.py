@@ -1,15 +1,19 @@
-"""A live view of a running attitude service in Foxglove: every vehicle's attitude in 3D, and over time each
-body axis's error (against the simulator's truth) with the filter's ±3σ, the effective sample size of the
+"""A live view of a running attitude service in Foxglove or Rerun: every vehicle's attitude in 3D, and over time
+each body axis's error (against the simulator's truth) with the filter's ±3σ, the effective sample size of the
 particle filters and the rejection counts.
 
     attitude-service demo                                        # or any service; the user runs this
     attitude-view --connect tcp/127.0.0.1:7447                   # then Foxglove: Open connection → ws://localhost:8765
+    attitude-view --rerun --connect tcp/127.0.0.1:7447           # or Rerun: a browser at the printed address
     attitude-view --demo [--bin PATH] [-- DEMO OPTIONS]          # starts `attitude-service demo` itself, then the same
     attitude-view --write-layout attitude.json [--layout-vehicles sc1,sc2] [--no-truth]
 
 (installed with the package; the Foxglove server needs the ``view`` extra: ``pip install 'attitude-client[view]'``,
-i.e. foxglove-sdk, Python 3.10 or later.) ``docs/view.md`` is the user's page: why Foxglove, how to run it, what each
-topic holds.
+i.e. foxglove-sdk, Python 3.10 or later; the Rerun sink the ``view-rerun`` extra, rerun-sdk, Python 3.11 or later.)
+``docs/view.md`` is the user's page: why both, how to run each, what each topic and entity holds.
+
+One place per job: :class:`View` computes every message (below) and hands it to a :class:`Sink`:
+:class:`FoxgloveSink` here, ``view_rerun.RerunSink`` for Rerun (the same messages as Rerun entities).
 
 How it works. One zenoh session follows ``P/<vehicles>/estimate``, ``P/<vehicles>/truth`` and
 ``P/<vehicles>/rejected`` in one :class:`~attitude_client.MessageStream` (zenoh's callbacks only append the raw

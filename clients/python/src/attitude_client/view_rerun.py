@@ -14,10 +14,11 @@ where ``--host`` says (127.0.0.1 by default), as the Foxglove sink does. The vie
 (``RecordingStream.connect_grpc``) with its blueprint, so the layout opens ready.
 
 Entities. Per vehicle ``V``, each message of the Foxglove topic ``/V/<leaf>`` is a row of the entity ``/V/<leaf>``
-(``AnyValues``: every field but ``vehicle``, ``t`` and ``seq``, objects flattened: ``q.w``, ``by_code.bad_request``); what the layout plots is also a
-``Scalars`` entity ``/V/<leaf>/<field>`` (a vector one entity of three series: ``error_deg``, ``plus_3sigma_deg``,
-``minus_3sigma_deg``, ``euler_deg``, ``three_sigma_deg``, ``ess``, the rejections' ``total``), and each rejection a
-``TextLog`` line (``/V/rejections/last``). Few entities: a viewer's cost grows with the rows it ingests. The 3D scene is
+(``AnyValues``: every field but ``vehicle``, ``t`` and ``seq``, objects flattened: ``q.w``, ``by_code.bad_request``);
+what the layout plots is also a ``Scalars`` entity ``/V/<leaf>/<field>`` (a vector one entity of three series:
+``error_deg``, ``plus_3sigma_deg``, ``minus_3sigma_deg``, ``euler_deg``, ``three_sigma_deg``, ``ess``, the rejections'
+``total``), and the last rejection a ``TextLog`` line (``/V/rejections/last``) with each publication of the counts.
+Few entities: a viewer's cost grows with the rows it ingests. The 3D scene is
 ``/world`` (z up): ``/world/V/estimate`` (``Transform3D``: the estimate, the vehicle at its place on the grid) with a
 box and the body axes, ``/world/V/truth`` (the truth at the estimate's ``t``) with longer thin axes, and
 ``/world/V/label``. ``/summary`` is a Markdown table. Timelines: ``wall`` (the view's clock, as Foxglove's log time),
@@ -125,9 +126,9 @@ def blueprint(vehicles: Sequence[str] = DEMO_VEHICLES, truth: bool = True) -> An
             )
     across = rrb.Horizontal(
         rrb.TimeSeriesView(name="effective sample size (particle filters)", origin="/",
-                           contents=[f"/{v}/diagnostics/ess" for v in vehicles] or "/*/diagnostics/ess"),
+                           contents=[f"/{v}/diagnostics/ess" for v in vehicles]),
         rrb.TimeSeriesView(name="rejected inputs since the view started", origin="/",
-                           contents=[f"/{v}/rejections/total" for v in vehicles] or "/*/rejections/total"),
+                           contents=[f"/{v}/rejections/total" for v in vehicles]),
     )
     if per_vehicle:
         n_cols = max(1, (len(per_vehicle) + 3) // 4)  # about four down at most per column, as the layout
@@ -271,7 +272,7 @@ class RerunSink:
         self.send_blueprint()
 
     def close(self) -> None:
-        self.rec.flush()
+        self.rec.flush(timeout_sec=10.0)  # bounded: a server killed from outside must not hold the view up
         self.rec.disconnect()
 
 
@@ -341,7 +342,10 @@ class RerunServer:
                "--web-viewer-port", str(web_port), "--server-memory-limit", memory_limit]
         env = dict(os.environ)
         env.setdefault("RUST_LOG", "warn")  # its own banner would repeat the view's
-        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, env=env)
+        # Its own session: a Ctrl-C in the terminal reaches the view only, which sends its last messages to the
+        # server and then stops it (stop()); in the view's process group the server would die first. (A view killed
+        # outright leaves it running: it is the child `rerun --serve-web` on the view's ports.)
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, env=env, start_new_session=True)
         deadline = time.monotonic() + timeout
         while not (_listening(local, grpc_port) and _listening(local, web_port)):
             if self.proc.poll() is not None:
