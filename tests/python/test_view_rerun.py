@@ -455,3 +455,28 @@ def test_write_blueprint_writes_a_blueprint_file(tmp_path):
         if "ViewBlueprint:display_name" in rb.schema.names:
             names |= {n[0] for n in rb.column("ViewBlueprint:display_name").to_pylist() if n}
     assert {"a: roll, pitch, yaw (deg)", "a: 3σ per body axis (deg)", "b: roll, pitch, yaw (deg)"} <= names
+
+
+def test_a_taken_port_is_refused_not_shared(tmp_path):
+    """Both ports already listened on (another server): the view says which and exits, rather than logging to it."""
+    import socket
+
+    taken = []
+    for _ in range(2):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        taken.append(s)
+    try:
+        grpc, web = (s.getsockname()[1] for s in taken)
+        script = Path(sys.executable).parent / "attitude-view"
+        done = subprocess.run(
+            [str(script), "--rerun", "--connect", f"tcp/127.0.0.1:{free_port()}", "--wait", "0",
+             "--grpc-port", str(grpc), "--web-port", str(web)],
+            capture_output=True, text=True, timeout=60, cwd=tmp_path,
+        )
+    finally:
+        for s in taken:
+            s.close()
+    assert done.returncode == 1, done.stderr
+    assert f"port {grpc} on 127.0.0.1 is taken" in done.stderr, done.stderr

@@ -321,6 +321,18 @@ def rerun_cli() -> Path:
     raise FileNotFoundError(f"no rerun binary in {here} (rerun-sdk's rerun_cli)")
 
 
+def _taken(host: str, port: int) -> bool:
+    """Whether a socket listens on ``host:port`` already (a bind with SO_REUSEADDR fails only then, on Linux)."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError:
+            return True
+    return False
+
+
 def _listening(host: str, port: int) -> bool:
     try:
         with socket.create_connection((host, port), timeout=0.2):
@@ -340,6 +352,10 @@ class RerunServer:
         self.url = viewer_url(web_port, grpc_port, host)
         cmd = [str(rerun_cli()), "--serve-web", "--bind", host, "--port", str(grpc_port),
                "--web-viewer-port", str(web_port), "--server-memory-limit", memory_limit]
+        # Readiness is "both ports listen": so neither may be taken before (or the view would log to another server).
+        for port in (grpc_port, web_port):
+            if _taken(host, port):
+                raise RuntimeError(f"port {port} on {host} is taken")
         env = dict(os.environ)
         env.setdefault("RUST_LOG", "warn")  # its own banner would repeat the view's
         # Its own session: a Ctrl-C in the terminal reaches the view only, which sends its last messages to the
