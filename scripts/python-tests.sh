@@ -26,6 +26,8 @@ PACKAGES=(
   "h5py==3.16.0"
   "ahrs==0.3.1"
   "foxglove-sdk==0.30.3"
+  # attitude-view --rerun (tests/python/test_view_rerun.py): its gRPC server, web viewer and chunk reader
+  "rerun-sdk==0.41.0"
   "websockets==17.4"
   "protobuf==7.36.2"
   # The independent sparse-grid rules of tests/python/test_sghq_rule.py (numpoly is its polynomial
