@@ -221,8 +221,19 @@ def test_diagnostics_and_humble(ros_service):
             humble.put_raw(bytes(rp.TYPESTORE.serialize_cdr(rp.imu_msg(i * 0.01, [0, 0, 0], [0, 0, 9.81]), IMU)), key=key)
         got = []
         assert rp.wait_for(lambda: len(got.extend(rp.drain(out)) or got) >= 40, 10), "a Humble publisher is heard"
+        # An array published before the last sample was fused does not have all 60 yet (the
+        # period is 1 s): wait for the first that does, then check it.
         arrays = []
-        assert rp.wait_for(lambda: len(arrays.extend(rp.drain(diag)) or arrays) >= 1, 5)
+
+        def complete():
+            arrays.extend(rp.drain(diag))
+            for _, payload, _ in arrays:
+                for s in rp.decode(payload, DIAG).status:
+                    if s.hardware_id == "humble1" and any(kv.key == "received" and kv.value == "60" for kv in s.values):
+                        return True
+            return False
+
+        assert rp.wait_for(complete, 5), [[s.hardware_id for s in rp.decode(p, DIAG).status] for _, p, _ in arrays]
     finally:
         peer.close()
     a = rp.decode(arrays[-1][1], DIAG)
