@@ -26,6 +26,8 @@ PACKAGES=(
   "h5py==3.16.0"
   "ahrs==0.3.1"
   "foxglove-sdk==0.30.3"
+  # attitude-view --rerun (tests/python/test_view_rerun.py): its gRPC server, web viewer and chunk reader
+  "rerun-sdk==0.41.0"
   "websockets==17.4"
   "protobuf==7.36.2"
   # The independent sparse-grid rules of tests/python/test_sghq_rule.py (numpoly is its polynomial
@@ -33,6 +35,15 @@ PACKAGES=(
   "chaospy==4.3.21"
   "numpoly==1.3.9"
   "prometheus-client==0.26.0"
+  # The ROS 2 edge's tests (tests/python/test_ros2.py): rosbags for CDR, the RIHS01 type hashes and the bags,
+  # xxhash for rmw_zenoh's GIDs (XXH3-128).
+  "rosbags==0.11.9"
+  "xxhash==3.6.0"
+  # A second independent ROS 2-over-Zenoh client (tests/python/test_ros2_sdk.py) and its dependencies.
+  "zenoh-ros2-sdk==0.1.8"
+  "GitPython==3.2.1"
+  "json5==0.17.3"
+  "tqdm==4.70.1"
 )
 
 if [[ ! -x "$PY" ]]; then
@@ -71,7 +82,7 @@ if not pathlib.Path(attitude_client.__file__).resolve().is_relative_to(pathlib.P
     sys.exit(1)
 # Every console script of pyproject.toml is installed (a venv from before a script was added lacks it).
 scripts = {e.name for e in metadata.distribution("attitude-client").entry_points if e.group == "console_scripts"}
-sys.exit(0 if {"attitude-replay", "attitude-view"} <= scripts else 1)
+sys.exit(0 if {"attitude-replay", "attitude-view", "attitude-bag-replay"} <= scripts else 1)
 PYEOF
 then
   echo "python-tests: installing clients/python (editable)" >&2

@@ -9,6 +9,7 @@ pub mod engine;
 pub mod fleet;
 pub mod keys;
 pub mod persist;
+pub mod ros2;
 pub mod session;
 /// One vehicle (the state machine of the numeric core).
 pub use attitude_core::vehicle;
@@ -117,6 +118,14 @@ pub async fn run(
         .callback(callback.clone())
         .await
         .map_err(zerr)?;
+    // The ROS 2 edge (service.ros2): its inputs go through the same callback. (Not routed: every
+    // member of a fleet receives them, and the owner of the vehicle uses them.)
+    let ros2 = match engine.ros2() {
+        Some(edge) => {
+            Some(ros2::net::start(&session, &engine, edge.clone(), callback.clone()).await?)
+        }
+        None => None,
+    };
     // Routed inputs (`P/V/<leaf>/<r>`): a single instance takes every route; a member of a dynamic
     // fleet the routes it owns, and the standby batches of those it keeps, as they change (see
     // `join_fleet`).
@@ -239,6 +248,9 @@ pub async fn run(
     let _ = gyro.undeclare().await;
     let _ = vectors.undeclare().await;
     let _ = imu.undeclare().await;
+    if let Some(r) = ros2 {
+        r.stop().await;
+    }
     routing.close().await;
     for q in [
         q_attitude,

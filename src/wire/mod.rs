@@ -8,16 +8,19 @@
 
 mod admin;
 pub mod batch;
+pub mod cdr;
 mod input;
 mod output;
 mod rejection;
 mod reset;
+mod ros2;
 
 pub use admin::*;
 pub use input::*;
 pub use output::*;
 pub use rejection::*;
 pub use reset::*;
+pub use ros2::*;
 
 #[cfg(test)]
 mod tests {

@@ -94,7 +94,16 @@ struct Row {
     /// `wrong`: the input goes on a routed key whose route is the vehicle's plus one.
     #[serde(default)]
     route: Option<String>,
+    /// The DDS type name and type hash chunks of a ROS 2 row's key, when not its topic's.
+    #[serde(default)]
+    ros2_type: Option<String>,
+    #[serde(default)]
+    ros2_hash: Option<String>,
 }
+
+/// The Jazzy type hashes of the ROS 2 rows' topics (as rosbags computes them; tests/python/test_ros2.py).
+const IMU_HASH: &str = "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b";
+const MAG_HASH: &str = "RIHS01_e80f32f56a20486c9923008fc1a1db07bbb273cbbf6a5b3bfa00835ee00e4dff";
 
 impl Row {
     fn target(&self) -> &str {
@@ -105,30 +114,44 @@ impl Row {
         self.leaf == "reset"
     }
 
-    /// The healthy vehicle's feed: the row's `healthy`, else IMU samples for the rows of leaf `imu`.
+    /// The key a row's input is put on: `P/V/<leaf>`, or rmw_zenoh's key of the vehicle's ROS 2 topic.
+    fn input_key(&self, vehicle: &str) -> String {
+        let (topic, ty, hash) = match self.leaf.as_str() {
+            "ros2_imu" => ("imu/data_raw", "sensor_msgs::msg::dds_::Imu_", IMU_HASH),
+            "ros2_mag" => (
+                "imu/mag",
+                "sensor_msgs::msg::dds_::MagneticField_",
+                MAG_HASH,
+            ),
+            leaf => {
+                return match self.route.as_deref() {
+                    None => format!("{PREFIX}/{vehicle}/{leaf}"),
+                    Some("wrong") => format!(
+                        "{PREFIX}/{vehicle}/{leaf}/{:x}",
+                        (route_of(vehicle) + 1) % ROUTES as u8
+                    ),
+                    Some(other) => panic!("{}: route {other:?} (only \"wrong\")", self.id),
+                }
+            }
+        };
+        format!(
+            "0/{vehicle}/{topic}/{}/{}",
+            self.ros2_type.as_deref().unwrap_or(ty),
+            self.ros2_hash.as_deref().unwrap_or(hash)
+        )
+    }
+
+    /// The healthy vehicle's feed: the row's `healthy`, else IMU samples for the rows of leaf `imu`
+    /// (and the ROS 2 rows).
     fn feed(&self) -> Feed {
         match (self.healthy.as_deref(), self.leaf.as_str()) {
-            (Some("imu"), _) | (None, "imu") => Feed::Imu,
+            (Some("imu"), _) | (None, "imu" | "ros2_imu" | "ros2_mag") => Feed::Imu,
             _ => Feed::Gyro,
         }
     }
 
     fn config(&self) -> Map<String, Value> {
         self.config.clone().unwrap_or_default()
-    }
-
-    /// The key the row's input goes on (and its rejection names).
-    fn input_key(&self) -> String {
-        let target = self.target();
-        match self.route.as_deref() {
-            None => format!("{PREFIX}/{target}/{}", self.leaf),
-            Some("wrong") => format!(
-                "{PREFIX}/{target}/{}/{:x}",
-                self.leaf,
-                (route_of(target) + 1) % ROUTES as u8
-            ),
-            Some(other) => panic!("{}: route {other:?} (only \"wrong\")", self.id),
-        }
     }
 
     fn payload(&self) -> Vec<u8> {
@@ -165,8 +188,8 @@ fn rows() -> Vec<Row> {
             r.id
         );
         assert!(
-            ["gyro", "vectors", "imu", "reset"].contains(&r.leaf.as_str()),
-            "{}: leaf {:?} (gyro, vectors, imu, reset)",
+            ["gyro", "vectors", "imu", "reset", "ros2_imu", "ros2_mag"].contains(&r.leaf.as_str()),
+            "{}: leaf {:?} (gyro, vectors, imu, reset, ros2_imu, ros2_mag)",
             r.id,
             r.leaf
         );
@@ -369,6 +392,8 @@ impl Run {
                 "filter": {"kind": "mekf"},
                 "workers": 2,
                 "limits": limits,
+                // (The ROS 2 rows' inputs; the edge changes nothing for the others.)
+                "ros2": {"enabled": true},
             }
         })
         .to_string();
@@ -598,7 +623,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             }
         }
     } else {
-        run.put_on(&row.input_key(), row.payload());
+        run.put_on(&row.input_key(target), row.payload());
         run.wait(Duration::from_secs(10), |r| {
             !r.rejections_since(n0).is_empty()
         });
@@ -726,7 +751,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             fails.push(format!("a reset published rejections: {rejections:?}"));
         }
     } else {
-        let input_key = row.input_key();
+        let input_key = row.input_key(target);
         match rejections.as_slice() {
             [(k, m)] => {
                 if *k != format!("{PREFIX}/{target}/rejected") {

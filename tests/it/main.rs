@@ -21,6 +21,7 @@ mod properties;
 mod proto;
 mod qpf;
 mod robustness;
+mod ros2;
 mod service;
 mod sghqf;
 mod soak_cli;

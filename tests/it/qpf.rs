@@ -153,6 +153,54 @@ fn same_seed_same_filter_different_seed_different_cloud() {
     assert_ne!(run(11).q, run(12).q);
 }
 
+/// A vehicle's history refills a dropped state in place (`state_into`, keeping the cloud's arrays):
+/// written over an older state of the same filter, over a cloud of another size and over another
+/// filter's state, it is exactly `state()`, and restores to the same filter.
+#[test]
+fn a_state_written_over_another_is_the_state() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let q_true = Quaternion::from_rotation_vector(&Vector3::new(0.005, 0.0, -0.004));
+    let mut run = |spec: &str, particles: usize, steps: usize| {
+        let mut f = build_filter(
+            &config(spec, particles),
+            &initial(Quaternion::IDENTITY, 0.01, false),
+            7,
+        )
+        .unwrap();
+        for k in 0..steps {
+            let t = k as f64;
+            f.process(&Measurement::Gyro(GyroSample {
+                t_s: t,
+                omega_body_rad_s: Vector3::new(0.01, 0.0, 0.0),
+            }))
+            .unwrap();
+            f.process(&Measurement::Vectors(ObservationSet {
+                t_s: t + 0.5,
+                observations: observations(&q_true, 1e-3, &mut rng),
+            }))
+            .unwrap();
+        }
+        f
+    };
+    let f = run("qpf:average", 300, 6);
+    let want = f.state();
+    for older in [
+        run("qpf:average", 300, 2).state(),
+        run("qpf:propagated", 500, 3).state(),
+        run("qpf:average", 100, 1).state(),
+        run("mekf", 0, 2).state(),
+    ] {
+        let mut s = older;
+        f.state_into(&mut s);
+        assert_eq!(s, want);
+        assert_eq!(s.restore().unwrap().estimate(), f.estimate());
+    }
+    let m = run("mekf", 0, 3);
+    let mut s = want.clone();
+    m.state_into(&mut s);
+    assert_eq!(s, m.state());
+}
+
 #[test]
 fn a_refused_update_rolls_back() {
     let mut f = Driver::new(

@@ -4,7 +4,8 @@ proto/BAD_INPUTS.md ("How a row is tested") describes the setup and the checks; 
 same rows against an in-process engine. Rows without `config` use the shared service (each with a healthy
 vehicle of its own, switched to the MEKF by a reset before it starts, fed gyro samples or, for the rows of
 leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `config` (overrides of
-`service.limits`) starts a service of its own. A row with `propagated_to` asserts the filters' contract for an
+`service.limits`) starts a service of its own, and the ROS 2 rows (leaves `ros2_imu`, `ros2_mag`) share one with
+`service.ros2` enabled, their CDR put on rmw_zenoh's key of the vehicle's topic. A row with `propagated_to` asserts the filters' contract for an
 update refused after its propagation (the filter and the vehicle's time stay at that time). No row is an expected
 failure: a row the service gets wrong fails its case. A row with `route: "wrong"` goes on a routed key whose
 route is not its vehicle's.
@@ -24,7 +25,26 @@ from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
 #: The keys a row may have (tests/it/bad_inputs.rs refuses any other, `known_issue` included).
 ROW_KEYS = {"id", "case", "leaf", "healthy", "vehicle", "payload", "payload_hex", "payload_gen", "config", "code",
-            "propagated_to", "route"}
+            "propagated_to", "route", "ros2_type", "ros2_hash"}
+#: The Jazzy type hashes of the ROS 2 rows' topics (rosbags' own; tests/python/test_ros2.py).
+ROS2_TOPICS = {
+    "ros2_imu": ("imu/data_raw", "sensor_msgs::msg::dds_::Imu_",
+                 "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b"),
+    "ros2_mag": ("imu/mag", "sensor_msgs::msg::dds_::MagneticField_",
+                 "RIHS01_e80f32f56a20486c9923008fc1a1db07bbb273cbbf6a5b3bfa00835ee00e4dff"),
+}
+
+
+def input_key(prefix: str, row: dict, vehicle: str) -> str:
+    """``P/V/<leaf>`` (routed, with a route other than the vehicle's, for ``route: "wrong"``), or rmw_zenoh's
+    key of the vehicle's ROS 2 topic for a ROS 2 row."""
+    if row["leaf"] not in ROS2_TOPICS:
+        key = f"{prefix}/{vehicle}/{row['leaf']}"
+        if row.get("route") == "wrong":
+            key += f"/{(route_of(vehicle) + 1) % ROUTES:x}"
+        return key
+    topic, ty, hash_ = ROS2_TOPICS[row["leaf"]]
+    return f"0/{vehicle}/{topic}/{row.get('ros2_type', ty)}/{row.get('ros2_hash', hash_)}"
 #: Codes decided by the vehicle after the input was queued (the vehicle's `received` counts it).
 QUEUED_CODES = {"out_of_order", "duplicate", "time_jump", "mixed_inputs", "not_initialized", "filter_error"}
 OBS = [
@@ -48,7 +68,7 @@ def imu(t: float) -> str:
 
 def feed(row: dict) -> str:
     """What the row's healthy vehicle is fed: ``gyro`` or ``imu`` (its `healthy`, else by its leaf)."""
-    return row.get("healthy", "imu" if row["leaf"] == "imu" else "gyro")
+    return row.get("healthy", "imu" if row["leaf"] in ("imu", *ROS2_TOPICS) else "gyro")
 
 
 def generate(g: dict) -> bytes:
@@ -159,12 +179,35 @@ def baselines(client):
     return get
 
 
+@pytest.fixture(scope="module")
+def ros2_service():
+    """The service of the ROS 2 rows (made when first needed), stopped at the end of the module."""
+    made = []
+
+    def get():
+        if not made:
+            svc = ServiceProcess({"filter": {"kind": "mekf"}, "ros2": {"enabled": True}}, prefix="bi-ros2")
+            c = svc.client()
+            made.append((svc, c))
+            svc.wait_ready(c)
+        return made[0]
+
+    yield get
+    for svc, c in made:
+        c.close()
+        code, _ = svc.stop()
+        assert code == 0, svc.log()[-4000:]
+        assert "panicked" not in svc.log()
+
+
 @pytest.fixture
-def service_for(service, client):
+def service_for(service, client, ros2_service):
     """(ServiceProcess, client) for a row: the shared service, or one of its own for a row with `config`."""
     made = []
 
     def get(row):
+        if row["leaf"] in ROS2_TOPICS:
+            return ros2_service()
         if "config" not in row:
             return service, client
         svc = ServiceProcess({"filter": {"kind": "mekf"}, "limits": row["config"]}, prefix=f"bi-{row['id']}")
@@ -210,10 +253,7 @@ def test_bad_input(service_for, baselines, index, row):
     rejections = Collector()
     sub = subscribe_synced(c, c.subscribe_rejections, rejections)
     fails = []
-    # The key the row's input goes on: plain, or routed with a route other than the vehicle's.
-    input_key = c.key(target, row["leaf"])
-    if row.get("route") == "wrong":
-        input_key += f"/{(route_of(target) + 1) % ROUTES:x}"
+    in_key = input_key(prefix, row, target)
 
     if reset:
         replies = c.query(f"{target}/reset", payload=payload(row))
@@ -229,7 +269,10 @@ def test_bad_input(service_for, baselines, index, row):
             if err["key"] != f"{prefix}/{target}/reset":
                 fails.append(f"the error's key is {err['key']}")
     else:
-        c.session.put(input_key, payload(row), encoding=zenoh.Encoding.APPLICATION_JSON)
+        if row["leaf"] in ROS2_TOPICS:
+            c.session.put(in_key, payload(row))
+        else:
+            c.session.put(in_key, payload(row), encoding=zenoh.Encoding.APPLICATION_JSON)
         deadline = time.monotonic() + 10.0
         while not rejections.snapshot() and time.monotonic() < deadline:
             time.sleep(0.005)
@@ -293,6 +336,6 @@ def test_bad_input(service_for, baselines, index, row):
             fails.append(f"rejected with {msg['code']} ({msg['message']}), not {code}")
         if not msg["message"]:
             fails.append("empty message")
-        if msg["key"] != input_key:
+        if msg["key"] != in_key:
             fails.append(f"the rejection's key is {msg['key']}")
     assert not fails, f"{row['id']} ({row['case']}):\n" + "\n".join(fails)

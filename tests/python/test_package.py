@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import pathlib
 import re
 import signal
 import subprocess
@@ -195,7 +196,7 @@ def test_the_wheel_is_typed_and_installs_its_scripts(tmp_path):
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("attitude_client-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    for module in ("__init__", "client", "estimate", "stream", "replay", "view"):
+    for module in ("__init__", "client", "estimate", "stream", "replay", "view", "view_rerun"):
         assert f"attitude_client/{module}.py" in names
     assert "attitude_client/py.typed" in names
     assert "attitude_client/layouts/demo.json" in names
@@ -208,6 +209,8 @@ def test_the_wheel_is_typed_and_installs_its_scripts(tmp_path):
     assert re.search(r"^Requires-Dist: numpy", metadata, re.M)
     assert re.search(r"^Requires-Dist: scipy.*extra == .scipy.", metadata, re.M)
     assert re.search(r"^Requires-Dist: foxglove-sdk.*extra == .view.", metadata, re.M)
+    assert re.search(r"^Requires-Dist: rerun-sdk<0\.42,>=0\.41\.0; .*python_version >= .3\.11.*extra == .view-rerun.",
+                     metadata, re.M), metadata
 
 
 def readme_example() -> str:
@@ -303,3 +306,44 @@ def test_the_view_extra_installs_in_the_fresh_venv(fresh_venv, tmp_path):
         log = proc.communicate(timeout=20)[0]
     assert proc.returncode == 0, log
     assert "no service answered" in log, log
+
+
+def test_the_view_rerun_extra_installs_in_the_fresh_venv(fresh_venv, tmp_path):
+    """`pip install './clients/python[view-rerun]'` as docs/view.md says (rerun-sdk from PyPI, or pip's cache), into the
+    README's fresh venv: the installed `attitude-view --rerun` starts the wheel's server, whose web viewer answers over
+    HTTP (here with no service: it says so and serves anyway), and stops it on Ctrl-C."""
+    import urllib.request
+
+    assert "pip install './clients/python[view-rerun]'" in (ROOT / "docs" / "view.md").read_text()
+    py = fresh_venv / "bin" / "python"
+    out = subprocess.run(
+        [str(py), "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{PACKAGE}[view-rerun]"],
+        capture_output=True, text=True, timeout=900,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+    web, grpc = free_port(), free_port()
+    log_path = tmp_path / "view.log"
+    with open(log_path, "wb") as log:
+        proc = subprocess.Popen(
+            [str(fresh_venv / "bin" / "attitude-view"), "--rerun", "--connect", f"tcp/127.0.0.1:{free_port()}",
+             "--wait", "0", "--web-port", str(web), "--grpc-port", str(grpc)],
+            stdout=log, stderr=subprocess.STDOUT, cwd=tmp_path,
+        )
+    children: list[int] = []
+    try:
+        wait_until(lambda: "web viewer on" in log_path.read_text() or proc.poll() is not None, 30, "the web viewer")
+        assert proc.poll() is None, log_path.read_text()
+        with urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10) as r:
+            assert "re_viewer" in r.read().decode()
+        # The server is the fresh venv's own (its rerun_cli), a child of the view.
+        children += [int(c) for task in pathlib.Path(f"/proc/{proc.pid}/task").iterdir()
+                    for c in (task / "children").read_text().split()]
+        exes = [pathlib.Path(f"/proc/{c}/cmdline").read_bytes().split(b"\0")[0].decode() for c in children]
+        assert any(e.startswith(str(fresh_venv)) and e.endswith("rerun_cli/rerun") for e in exes), exes
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+    log = log_path.read_text()
+    assert proc.returncode == 0 and "no service answered" in log, log
+    # Its server stopped with it (and was reaped).
+    assert children and not [c for c in children if pathlib.Path(f"/proc/{c}").exists()], children

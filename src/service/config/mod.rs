@@ -83,6 +83,8 @@ pub struct ServiceConfig {
     pub persistence: Persistence,
     pub fleet: FleetConfig,
     pub metrics: MetricsConfig,
+    /// The ROS 2 edge (off unless enabled).
+    pub ros2: crate::service::ros2::Ros2Config,
 }
 
 impl ServiceConfig {
@@ -446,6 +448,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         raw.workers
     };
     let fleet = validate_fleet(&raw.key_prefix, raw.fleet)?;
+    let ros2 = crate::service::ros2::config::validate(raw.ros2)?;
     Ok(ServiceConfig {
         key_prefix: raw.key_prefix,
         default_filter,
@@ -468,6 +471,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         metrics: MetricsConfig {
             max_vehicles: raw.metrics.max_vehicles,
         },
+        ros2,
     })
 }
 

@@ -28,6 +28,7 @@ pub(super) struct RawService {
     pub(super) persistence: RawPersistence,
     pub(super) fleet: RawFleet,
     pub(super) metrics: RawMetrics,
+    pub(super) ros2: crate::service::ros2::RawRos2,
 }
 
 impl Default for RawService {
@@ -46,6 +47,7 @@ impl Default for RawService {
             persistence: RawPersistence::default(),
             fleet: RawFleet::default(),
             metrics: RawMetrics::default(),
+            ros2: Default::default(),
         }
     }
 }

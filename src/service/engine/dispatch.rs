@@ -1,5 +1,5 @@
 //! The dispatcher thread, the wire edge: inputs in arrival order, classified by key (a vehicle's input,
-//! plain or routed, or a standby batch), checked for fleet ownership, decoded straight into
+//! plain or routed, a standby batch, or the ROS 2 edge's), checked for fleet ownership, decoded straight into
 //! measurements and queued on their vehicle's inbox; the vehicles go to the worker pool once the inputs
 //! already waiting are queued too.
 
@@ -87,7 +87,12 @@ impl Engine {
                 self.standby_estimates(r, group, &inbound.key, &inbound.payload);
                 return;
             }
-            None => return,
+            None => {
+                if let Some(v) = self.dispatch_ros2(inbound, decoded) {
+                    touched.push(v);
+                }
+                return;
+            }
         };
         if !matches!(leaf, Leaf::Gyro | Leaf::Vectors | Leaf::Imu) {
             return;
@@ -135,6 +140,19 @@ impl Engine {
     ) -> Option<Arc<Vehicle>> {
         decoded.clear();
         let result = self.decode(leaf, payload, decoded)?;
+        self.queue(vehicle, key, result, decoded)
+    }
+
+    /// Queues the measurements decoded from one input on its vehicle's inbox (creating the vehicle),
+    /// or refuses the input: the rejection of its decoding, an invalid vehicle id, too many vehicles,
+    /// a full inbox. Returns the vehicle to schedule.
+    pub(super) fn queue(
+        &self,
+        vehicle: &str,
+        key: &str,
+        result: Result<usize, Rejection>,
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
         let n = *result.as_ref().unwrap_or(&1) as u64;
         self.counters.received.fetch_add(n, Ordering::Relaxed);
         let refused = |r: &Rejection| {

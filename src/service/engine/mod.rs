@@ -18,6 +18,7 @@ mod fleet;
 mod metrics;
 mod output;
 mod queries;
+mod ros2;
 
 pub use fleet::RoutePlan;
 pub use metrics::METRICS_ENCODING;
@@ -220,6 +221,8 @@ pub struct Engine {
     fleet: FleetState,
     /// `P/<shard>/x` when statically sharded (`fleet.vehicles` other than `*`).
     shard: Option<zenoh::key_expr::OwnedKeyExpr>,
+    /// The ROS 2 edge, when `service.ros2` enables it.
+    ros2: Option<Arc<super::ros2::Edge>>,
 }
 
 /// What this instance knows of the rest of its fleet (dynamic mode).
@@ -328,6 +331,12 @@ impl Engine {
         let shard = (config.fleet.vehicles != "*")
             .then(|| zenoh::key_expr::OwnedKeyExpr::try_from(keys.all(Leaf::Gyro)).ok())
             .flatten();
+        let ros2 = config.ros2.enabled.then(|| {
+            Arc::new(super::ros2::Edge::new(
+                config.ros2.clone(),
+                config.limits.max_vehicles,
+            ))
+        });
         let fleet = FleetState {
             routes: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
             outgoing: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
@@ -338,6 +347,7 @@ impl Engine {
         let engine = Arc::new(Engine {
             keys,
             shard,
+            ros2,
             fleet,
             config: Arc::new(config),
             counters: Counters::default(),

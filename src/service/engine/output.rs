@@ -155,6 +155,9 @@ impl Engine {
         } else {
             None
         };
+        if let Some(ros2) = &self.ros2 {
+            ros2.on_estimate(&v.id, &e);
+        }
         *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(e));
         self.counters.estimates.fetch_add(1, Ordering::Relaxed);
         if let Some(payload) = payload {

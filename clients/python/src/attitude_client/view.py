@@ -1,15 +1,19 @@
-"""A live view of a running attitude service in Foxglove: every vehicle's attitude in 3D, and over time each
-body axis's error (against the simulator's truth) with the filter's ±3σ, the effective sample size of the
+"""A live view of a running attitude service in Foxglove or Rerun: every vehicle's attitude in 3D, and over time
+each body axis's error (against the simulator's truth) with the filter's ±3σ, the effective sample size of the
 particle filters and the rejection counts.
 
     attitude-service demo                                        # or any service; the user runs this
     attitude-view --connect tcp/127.0.0.1:7447                   # then Foxglove: Open connection → ws://localhost:8765
+    attitude-view --rerun --connect tcp/127.0.0.1:7447           # or Rerun: a browser at the printed address
     attitude-view --demo [--bin PATH] [-- DEMO OPTIONS]          # starts `attitude-service demo` itself, then the same
     attitude-view --write-layout attitude.json [--layout-vehicles sc1,sc2] [--no-truth]
 
 (installed with the package; the Foxglove server needs the ``view`` extra: ``pip install 'attitude-client[view]'``,
-i.e. foxglove-sdk, Python 3.10 or later.) ``docs/view.md`` is the user's page: why Foxglove, how to run it, what each
-topic holds.
+i.e. foxglove-sdk, Python 3.10 or later; the Rerun sink the ``view-rerun`` extra, rerun-sdk, Python 3.11 or later.)
+``docs/view.md`` is the user's page: why both, how to run each, what each topic and entity holds.
+
+One place per job: :class:`View` computes every message (below) and hands it to a :class:`Sink`:
+:class:`FoxgloveSink` here, ``view_rerun.RerunSink`` for Rerun (the same messages as Rerun entities).
 
 How it works. One zenoh session follows ``P/<vehicles>/estimate``, ``P/<vehicles>/truth`` and
 ``P/<vehicles>/rejected`` in one :class:`~attitude_client.MessageStream` (zenoh's callbacks only append the raw
@@ -58,14 +62,17 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Protocol, Sequence
 
 import numpy as np
 
 from .client import AttitudeClient
 from .estimate import Estimate
 
-__all__ = ["View", "REJECTION_CODES", "schemas", "layout", "main", "error_deg", "euler_zyx_deg", "vehicle_topics"]
+__all__ = [
+    "View", "Sink", "Pose", "FoxgloveSink", "REJECTION_CODES", "schemas", "layout", "main", "error_deg",
+    "euler_zyx_deg", "vehicle_topics",
+]
 
 #: The rejection codes of the contract (``proto/README.md``, ``proto/schemas/error.schema.json``; a test keeps the
 #: two equal). ``/V/rejections`` counts each of them (zero included) so that a plot has every series from the start.
@@ -312,14 +319,45 @@ def schemas() -> dict[str, dict]:
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# The view
+# The view: what to show, computed once for every sink (the transport: Foxglove here, Rerun in view_rerun.py)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """What the 3D scene shows of a vehicle: its place on the grid (``position``, m, in ``world``), the estimate
+    ``q`` and the truth at the estimate's ``t`` (``[w, x, y, z]``, body in reference; ``truth`` None without one), and
+    the label (id, filter, error and 3σ, ESS)."""
+
+    vehicle: str
+    position: tuple[float, float, float]
+    q: np.ndarray
+    truth: np.ndarray | None
+    label: str
+    t: float
+    seq: int
+
+
+class Sink(Protocol):
+    """Where the view's messages go. The messages are those of :func:`schemas` (plain dicts, JSON as published);
+    ``log_ns`` is the view's wall clock (ns since 1970, never decreasing)."""
+
+    def add_vehicle(self, vehicle: str, log_ns: int) -> None:
+        """A vehicle first heard of: announce its topics before their first message."""
+
+    def publish(self, vehicle: str, leaf: str, message: dict, log_ns: int) -> None:
+        """A message of ``/V/<leaf>`` (``attitude``, ``error``, ``diagnostics``, ``rejections``)."""
+
+    def scene(self, poses: list[Pose], log_ns: int, republish: bool) -> None:
+        """The 3D state of ``poses`` (one vehicle after its estimate or truth, or every vehicle: ``republish``)."""
+
+    def summary(self, message: dict, log_ns: int) -> None:
+        """The ``/summary`` table (``republish_s`` apart)."""
 
 
 @dataclass
 class _Vehicle:
     name: str
     slot: int
-    channels: dict[str, Any] = field(default_factory=dict)
     truths: "collections.OrderedDict[float, np.ndarray]" = field(default_factory=collections.OrderedDict)
     received: int = 0
     arrivals: "collections.deque[float]" = field(default_factory=lambda: collections.deque(maxlen=256))
@@ -351,28 +389,21 @@ AWAITING_KEPT = 64
 
 
 class View:
-    """The view of one service: feed it ``(key, message)`` pairs (:meth:`handle`) and call :meth:`tick`; it logs to
-    the Foxglove channels of ``context`` (a ``foxglove.Context``). :meth:`run` does both from a stream."""
+    """The view of one service, independent of the transport: feed it ``(key, message)`` pairs (:meth:`handle`) and
+    call :meth:`tick`; it computes every message (the arithmetic, the truth matching, the rate limit) and hands them
+    to ``sink`` (:class:`FoxgloveSink`, or ``view_rerun.RerunSink``). :meth:`run` does both from a stream."""
 
-    def __init__(self, context: Any, prefix: str = "attitude", max_rate: float = 30.0, republish_s: float = 1.0):
-        import foxglove
-        from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
-
-        self._fg = foxglove
-        self.context = context
+    def __init__(self, sink: Sink, prefix: str = "attitude", max_rate: float = 30.0, republish_s: float = 1.0):
+        self.sink = sink
         self.prefix = prefix.strip("/")
         self.max_rate = float(max_rate)
         self.republish_s = float(republish_s)
-        self.schemas = schemas()
         self.vehicles: dict[str, _Vehicle] = {}
         self._held: set[str] = set()  # vehicles with an estimate or rejections not yet published
         self.malformed = 0
         self.dropped = 0  # set by run() from the stream
         self._last_log_ns = 0
         self._last_republish = -math.inf
-        self.tf = FrameTransformsChannel(TF_TOPIC, context=context)
-        self.scene = SceneUpdateChannel(SCENE_TOPIC, context=context)
-        self.summary = foxglove.Channel(SUMMARY_TOPIC, schema=self.schemas[SUMMARY_TOPIC], context=context)
 
     # -- time ------------------------------------------------------------------------------------------
     def _now_ns(self) -> int:
@@ -380,24 +411,12 @@ class View:
         self._last_log_ns = now
         return now
 
-    # -- channels --------------------------------------------------------------------------------------
     def _vehicle(self, name: str) -> _Vehicle:
         v = self.vehicles.get(name)
         if v is None:
             v = self.vehicles[name] = _Vehicle(name, len(self.vehicles))
-            # Every topic of a vehicle is advertised at once, when it first appears: a client (a layout's plot)
-            # subscribes to them before their first message.
-            for leaf in VEHICLE_LEAVES:
-                self._channel(v, leaf)
+            self.sink.add_vehicle(name, self._now_ns())
         return v
-
-    def _channel(self, v: _Vehicle, leaf: str):
-        ch = v.channels.get(leaf)
-        if ch is None:
-            ch = v.channels[leaf] = self._fg.Channel(
-                f"/{v.name}/{leaf}", schema=self.schemas[leaf], context=self.context
-            )
-        return ch
 
     # -- input -----------------------------------------------------------------------------------------
     def _split(self, key: str) -> tuple[str, str] | None:
@@ -446,7 +465,7 @@ class View:
             log_ns = self._now_ns()
             self._publish_error(v, e, log_ns)
             if e is v.last:
-                self._publish_3d(v, log_ns)
+                self.sink.scene([self._pose(v)], log_ns, republish=False)
 
     def _on_rejected(self, name: str, msg: dict, now: float) -> None:
         v = self._vehicle(name)
@@ -483,7 +502,9 @@ class View:
         sigma = np.asarray(e.sigma_deg, dtype=float)
         roll, pitch, yaw = euler_zyx_deg(e.q)
         bias = np.degrees(e.bias) * 3600.0 if e.bias is not None else np.zeros(3)
-        self._channel(v, "attitude").log(
+        self.sink.publish(
+            v.name,
+            "attitude",
             {
                 "vehicle": v.name,
                 "t": e.t,
@@ -497,7 +518,7 @@ class View:
                 "rate_hz": v.rate_hz(now),
                 "received": v.received,
             },
-            log_time=log_ns,
+            log_ns,
         )
         d = e.diagnostics
         diag: dict[str, Any] = {
@@ -518,14 +539,14 @@ class View:
                 diag[name] = cast(d[name])
         if "ess" in diag and diag.get("particles"):
             diag["ess_fraction"] = diag["ess"] / diag["particles"]
-        self._channel(v, "diagnostics").log(diag, log_time=log_ns)
+        self.sink.publish(v.name, "diagnostics", diag, log_ns)
         if e.t in v.truths:
             self._publish_error(v, e, log_ns)
         else:
             v.awaiting[e.t] = e
             while len(v.awaiting) > AWAITING_KEPT:
                 v.awaiting.popitem(last=False)
-        self._publish_3d(v, log_ns)
+        self.sink.scene([self._pose(v)], log_ns, republish=False)
 
     def _publish_error(self, v: _Vehicle, e: Estimate, log_ns: int) -> None:
         truth = v.truths[e.t]
@@ -553,89 +574,30 @@ class View:
             msg["nees"] = nees
         if e is v.last:
             v.last_error = msg
-        self._channel(v, "error").log(msg, log_time=log_ns)
+        self.sink.publish(v.name, "error", msg, log_ns)
 
     def _publish_rejections(self, v: _Vehicle, log_ns: int) -> None:
         by_code = {code: 0 for code in REJECTION_CODES}
         for code, n in v.rejections.items():
             by_code[code] = n  # a code this version does not know is still counted
-        self._channel(v, "rejections").log(
+        self.sink.publish(
+            v.name,
+            "rejections",
             {"vehicle": v.name, "total": sum(v.rejections.values()), "by_code": by_code, "last": v.last_rejection},
-            log_time=log_ns,
+            log_ns,
         )
 
-    def _transforms(self, vehicles: Iterable[_Vehicle], log_ns: int) -> list:
-        m = self._fg.messages
-        stamp = m.Timestamp(log_ns // 1_000_000_000, log_ns % 1_000_000_000)
-        out = []
-        for v in vehicles:
-            if v.last is None:
-                continue
-            x, y, z = v.position()
-            q = v.last.q
-            out.append(
-                m.FrameTransform(
-                    timestamp=stamp, parent_frame_id=WORLD, child_frame_id=v.name,
-                    translation=m.Vector3(x=x, y=y, z=z),
-                    rotation=m.Quaternion(x=float(q[1]), y=float(q[2]), z=float(q[3]), w=float(q[0])),
-                )
-            )
-            truth = v.truths.get(v.last.t)
-            if truth is not None:
-                out.append(
-                    m.FrameTransform(
-                        timestamp=stamp, parent_frame_id=WORLD, child_frame_id=f"{v.name}/truth",
-                        translation=m.Vector3(x=x, y=y, z=z),
-                        rotation=m.Quaternion(x=float(truth[1]), y=float(truth[2]), z=float(truth[3]),
-                                              w=float(truth[0])),
-                    )
-                )
-        return out
-
-    def _entities(self, vehicles: Iterable[_Vehicle], log_ns: int) -> list:
-        m = self._fg.messages
-        stamp = m.Timestamp(log_ns // 1_000_000_000, log_ns % 1_000_000_000)
-        out = []
-        for v in vehicles:
-            if v.last is None:
-                continue
-            e = v.last
-            out.append(
-                m.SceneEntity(
-                    timestamp=stamp, frame_id=v.name, id=v.name, frame_locked=True,
-                    cubes=[m.CubePrimitive(pose=_pose(m), size=m.Vector3(x=0.9, y=0.6, z=0.45),
-                                           color=m.Color(r=0.75, g=0.75, b=0.8, a=0.6))],
-                    arrows=_axes(m, length=1.3, diameter=0.07, alpha=1.0),
-                )
-            )
-            if e.t in v.truths:
-                out.append(
-                    m.SceneEntity(
-                        timestamp=stamp, frame_id=f"{v.name}/truth", id=f"{v.name}/truth", frame_locked=True,
-                        arrows=_axes(m, length=1.6, diameter=0.03, alpha=0.45),
-                    )
-                )
-            x, y, z = v.position()
-            text = f"{v.name}  {_filter_label(e)}"
-            if v.last_error is not None:
-                text += f"\nerror {v.last_error['angle_deg']:.3g}°  3σ {3.0 * float(np.max(e.sigma_deg)):.3g}°"
-            else:
-                text += f"\n3σ {3.0 * float(np.max(e.sigma_deg)):.3g}°"
-            if e.ess is not None:
-                text += f"  ESS {e.ess:.0f}"
-            out.append(
-                m.SceneEntity(
-                    timestamp=stamp, frame_id=WORLD, id=f"{v.name}/label", frame_locked=True,
-                    texts=[m.TextPrimitive(pose=_pose(m, (x, y, z + 1.9)), billboard=True, font_size=14.0,
-                                           scale_invariant=True, color=m.Color(r=1, g=1, b=1, a=1), text=text)],
-                )
-            )
-        return out
-
-    def _publish_3d(self, v: _Vehicle, log_ns: int) -> None:
-        m = self._fg.messages
-        self.tf.log(m.FrameTransforms(transforms=self._transforms([v], log_ns)), log_time=log_ns)
-        self.scene.log(m.SceneUpdate(entities=self._entities([v], log_ns)), log_time=log_ns)
+    def _pose(self, v: _Vehicle) -> Pose:
+        e = v.last
+        assert e is not None
+        text = f"{v.name}  {_filter_label(e)}"
+        if v.last_error is not None:
+            text += f"\nerror {v.last_error['angle_deg']:.3g}°  3σ {3.0 * float(np.max(e.sigma_deg)):.3g}°"
+        else:
+            text += f"\n3σ {3.0 * float(np.max(e.sigma_deg)):.3g}°"
+        if e.ess is not None:
+            text += f"\nESS {e.ess:.0f}"  # a third line: the labels of neighbours stay apart
+        return Pose(v.name, v.position(), np.asarray(e.q, dtype=float), v.truths.get(e.t), text, e.t, int(e.seq or 0))
 
     def _summary(self, now: float) -> dict:
         rows = []
@@ -668,13 +630,10 @@ class View:
         if now - self._last_republish >= self.republish_s:
             self._last_republish = now
             log_ns = self._now_ns()
-            m = self._fg.messages
-            vehicles = list(self.vehicles.values())
-            transforms = self._transforms(vehicles, log_ns)
-            if transforms:
-                self.tf.log(m.FrameTransforms(transforms=transforms), log_time=log_ns)
-                self.scene.log(m.SceneUpdate(entities=self._entities(vehicles, log_ns)), log_time=log_ns)
-            self.summary.log(self._summary(now), log_time=log_ns)
+            poses = [self._pose(v) for v in self.vehicles.values() if v.last is not None]
+            if poses:
+                self.sink.scene(poses, log_ns, republish=True)
+            self.sink.summary(self._summary(now), log_ns)
 
     def run(self, stream: Any, stop: threading.Event) -> None:
         """Takes ``(key, message)`` from ``stream`` (a :class:`~attitude_client.MessageStream`) until ``stop`` is
@@ -701,22 +660,107 @@ def _filter_label(e: Estimate) -> str:
     return f"{e.filter}:{e.fiducial}" if e.fiducial else str(e.filter)
 
 
+#: Body axes: x red, y green, z blue (the colours of both sinks' 3D axes and of the per-axis plots).
+AXIS_RGB = ((0.9, 0.15, 0.15), (0.2, 0.8, 0.2), (0.2, 0.4, 1.0))
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# The Foxglove sink: a channel per topic of a foxglove.Context (foxglove-sdk)
+
+
+class FoxgloveSink:
+    """The view's messages on Foxglove channels: the JSON topics with their JSON Schemas, ``/tf``
+    (``foxglove.FrameTransforms``) and ``/scene`` (``foxglove.SceneUpdate``) from the poses."""
+
+    def __init__(self, context: Any):
+        import foxglove
+        from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
+
+        self._fg = foxglove
+        self.context = context
+        self.schemas = schemas()
+        self.channels: dict[str, Any] = {}
+        self.tf = FrameTransformsChannel(TF_TOPIC, context=context)
+        self.scene_channel = SceneUpdateChannel(SCENE_TOPIC, context=context)
+        self.summary_channel = foxglove.Channel(SUMMARY_TOPIC, schema=self.schemas[SUMMARY_TOPIC], context=context)
+
+    def _channel(self, vehicle: str, leaf: str) -> Any:
+        topic = vehicle_topics(vehicle)[leaf]
+        ch = self.channels.get(topic)
+        if ch is None:
+            ch = self.channels[topic] = self._fg.Channel(topic, schema=self.schemas[leaf], context=self.context)
+        return ch
+
+    def add_vehicle(self, vehicle: str, log_ns: int) -> None:  # noqa: ARG002
+        # Every topic of a vehicle is advertised at once, when it first appears: a client (a layout's plot)
+        # subscribes to them before their first message.
+        for leaf in VEHICLE_LEAVES:
+            self._channel(vehicle, leaf)
+
+    def publish(self, vehicle: str, leaf: str, message: dict, log_ns: int) -> None:
+        self._channel(vehicle, leaf).log(message, log_time=log_ns)
+
+    def scene(self, poses: list[Pose], log_ns: int, republish: bool) -> None:  # noqa: ARG002 (both alike)
+        m = self._fg.messages
+        stamp = m.Timestamp(log_ns // 1_000_000_000, log_ns % 1_000_000_000)
+        transforms, entities = [], []
+        for p in poses:
+            x, y, z = p.position
+            for frame, q in ((p.vehicle, p.q), (f"{p.vehicle}/truth", p.truth)):
+                if q is None:
+                    continue
+                transforms.append(
+                    m.FrameTransform(
+                        timestamp=stamp, parent_frame_id=WORLD, child_frame_id=frame,
+                        translation=m.Vector3(x=x, y=y, z=z),
+                        rotation=m.Quaternion(x=float(q[1]), y=float(q[2]), z=float(q[3]), w=float(q[0])),
+                    )
+                )
+            entities.append(
+                m.SceneEntity(
+                    timestamp=stamp, frame_id=p.vehicle, id=p.vehicle, frame_locked=True,
+                    cubes=[m.CubePrimitive(pose=_pose(m), size=m.Vector3(x=0.9, y=0.6, z=0.45),
+                                           color=m.Color(r=0.75, g=0.75, b=0.8, a=0.6))],
+                    arrows=_axes(m, length=1.3, diameter=0.07, alpha=1.0),
+                )
+            )
+            if p.truth is not None:
+                entities.append(
+                    m.SceneEntity(
+                        timestamp=stamp, frame_id=f"{p.vehicle}/truth", id=f"{p.vehicle}/truth", frame_locked=True,
+                        arrows=_axes(m, length=1.6, diameter=0.03, alpha=0.45),
+                    )
+                )
+            entities.append(
+                m.SceneEntity(
+                    timestamp=stamp, frame_id=WORLD, id=f"{p.vehicle}/label", frame_locked=True,
+                    texts=[m.TextPrimitive(pose=_pose(m, (x, y, z + 1.9)), billboard=True, font_size=14.0,
+                                           scale_invariant=True, color=m.Color(r=1, g=1, b=1, a=1), text=p.label)],
+                )
+            )
+        self.tf.log(m.FrameTransforms(transforms=transforms), log_time=log_ns)
+        self.scene_channel.log(m.SceneUpdate(entities=entities), log_time=log_ns)
+
+    def summary(self, message: dict, log_ns: int) -> None:
+        self.summary_channel.log(message, log_time=log_ns)
+
+
 def _pose(m: Any, position: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Any:
     return m.Pose(position=m.Vector3(x=position[0], y=position[1], z=position[2]),
                   orientation=m.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
 
 
-#: Body axes: x red, y green, z blue; an arrow points along +x of its pose.
-_AXES = (
-    ((0.0, 0.0, 0.0, 1.0), (0.9, 0.15, 0.15)),
-    ((0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)), (0.2, 0.8, 0.2)),  # +90° about z: x → y
-    ((0.0, -math.sqrt(0.5), 0.0, math.sqrt(0.5)), (0.2, 0.4, 1.0)),  # −90° about y: x → z
+#: The orientation of each body axis's arrow (an arrow points along +x of its pose), x y z.
+_ARROW_ROTATIONS = (
+    (0.0, 0.0, 0.0, 1.0),
+    (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)),  # +90° about z: x → y
+    (0.0, -math.sqrt(0.5), 0.0, math.sqrt(0.5)),  # −90° about y: x → z
 )
 
 
 def _axes(m: Any, length: float, diameter: float, alpha: float) -> list:
     out = []
-    for (qx, qy, qz, qw), (r, g, b) in _AXES:
+    for (qx, qy, qz, qw), (r, g, b) in zip(_ARROW_ROTATIONS, AXIS_RGB):
         out.append(
             m.ArrowPrimitive(
                 pose=m.Pose(position=m.Vector3(x=0.0, y=0.0, z=0.0), orientation=m.Quaternion(x=qx, y=qy, z=qz, w=qw)),
@@ -888,7 +932,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         argv, demo_args = argv[:cut], argv[cut + 1 :]
     ap = argparse.ArgumentParser(
         prog="attitude-view",
-        description="A live view of a running attitude service in Foxglove (a Foxglove WebSocket server).",
+        description="A live view of a running attitude service: in Foxglove (a Foxglove WebSocket server, the default) "
+                    "or in Rerun's web viewer (--rerun).",
         epilog="Options after `--` go to `attitude-service demo` (with --demo). docs/view.md has the details.",
     )
     ap.add_argument("--connect", default="tcp/127.0.0.1:7447",
@@ -896,14 +941,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--prefix", default="attitude", help="the service's key prefix (default attitude)")
     ap.add_argument("--vehicles", default="*",
                     help="the vehicles to follow, one key chunk with zenoh wildcards, e.g. 'sc*' (default: all)")
+    ap.add_argument("--sink", choices=("foxglove", "rerun"), default="foxglove",
+                    help="foxglove: a Foxglove WebSocket server (default); rerun: Rerun's gRPC server and web viewer")
+    ap.add_argument("--rerun", dest="sink", action="store_const", const="rerun", help="the same as --sink rerun")
     ap.add_argument("--host", default="127.0.0.1",
-                    help="address of the Foxglove WebSocket server (default 127.0.0.1; 0.0.0.0 for other machines)")
-    ap.add_argument("--port", type=int, default=8765, help="its port (default 8765, Foxglove's)")
+                    help="address the view's servers listen on (default 127.0.0.1; 0.0.0.0 for other machines)")
+    ap.add_argument("--port", type=int, default=8765, help="the Foxglove WebSocket server's port (default 8765, Foxglove's)")
+    ap.add_argument("--web-port", type=int, default=9090, help="--rerun: the web viewer's HTTP port (default 9090, Rerun's)")
+    ap.add_argument("--grpc-port", type=int, default=9876, help="--rerun: the gRPC server's port (default 9876, Rerun's)")
+    ap.add_argument("--memory-limit", default="1GiB",
+                    help="--rerun: the log the gRPC server keeps for viewers that connect later, beyond which it drops "
+                         "the oldest (default 1GiB; e.g. 4GB, 25%%)")
     ap.add_argument("--max-rate", type=float, default=30.0,
                     help="publications per vehicle per second at most (default 30; 0: every estimate). The latest "
                          "estimate is always published")
     ap.add_argument("--republish", type=float, default=1.0,
-                    help="seconds between repetitions of /tf, /scene and /summary (default 1)")
+                    help="seconds between repetitions of the 3D scene and the summary (default 1)")
     ap.add_argument("--buffer", type=int, default=65536,
                     help="messages buffered between zenoh and the view; beyond, the oldest are dropped (default 65536)")
     ap.add_argument("--wait", type=float, default=10.0,
@@ -914,14 +967,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--bin", help="the attitude-service binary for --demo (default: $ATTITUDE_SERVICE_BIN, then PATH)")
     ap.add_argument("--write-layout", metavar="FILE", type=Path,
                     help="write the Foxglove layout for --layout-vehicles to FILE ('-': standard output) and exit")
-    ap.add_argument("--layout-vehicles", default=",".join(DEMO_VEHICLES),
-                    help="comma-separated vehicle ids of the layout (default sc1,sc2,sc3,sc4: the demo's)")
+    ap.add_argument("--write-blueprint", metavar="FILE", type=Path,
+                    help="write the Rerun blueprint for --layout-vehicles to FILE (.rbl) and exit")
+    ap.add_argument("--layout-vehicles",
+                    help="comma-separated vehicle ids of the layout (default sc1,sc2,sc3,sc4: the demo's; with "
+                         "--rerun, the vehicles as they appear)")
     ap.add_argument("--no-truth", action="store_true",
                     help="a layout for vehicles without a truth: roll/pitch/yaw and 3σ instead of the error")
     args = ap.parse_args(argv)
 
+    layout_vehicles = None
+    if args.layout_vehicles is not None:
+        layout_vehicles = [n.strip() for n in args.layout_vehicles.split(",") if n.strip()]
     if args.write_layout is not None:
-        names = [n.strip() for n in args.layout_vehicles.split(",") if n.strip()]
+        names = layout_vehicles or list(DEMO_VEHICLES)
         text = layout_json(names, truth=not args.no_truth)
         if str(args.write_layout) == "-":
             sys.stdout.write(text)
@@ -933,11 +992,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         ap.error("options after `--` are for --demo")
     if args.max_rate < 0 or args.republish <= 0 or args.buffer < 1:
         ap.error("--max-rate must be ≥ 0, --republish > 0 and --buffer ≥ 1")
-    try:
-        import foxglove
-    except ImportError:
-        _say("the view needs foxglove-sdk: pip install 'attitude-client[view]' (Python 3.10 or later)")
-        return 2
+    if args.sink == "rerun" or args.write_blueprint is not None:
+        try:
+            import rerun  # noqa: F401  (rerun-sdk refuses Python before 3.11 with a RuntimeError)
+
+            from . import view_rerun
+        except (ImportError, RuntimeError):
+            _say("the Rerun view needs rerun-sdk: pip install 'attitude-client[view-rerun]' (Python 3.11 or later)")
+            return 2
+        if args.write_blueprint is not None:
+            names = layout_vehicles or list(DEMO_VEHICLES)
+            view_rerun.write_blueprint(args.write_blueprint, names, truth=not args.no_truth)
+            _say(f"wrote {args.write_blueprint} ({len(names)} vehicles)")
+            return 0
+    else:
+        try:
+            import foxglove
+        except ImportError:
+            _say("the view needs foxglove-sdk: pip install 'attitude-client[view]' (Python 3.10 or later)")
+            return 2
 
     stop = threading.Event()
 
@@ -964,6 +1037,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     server = None
     stream = None
+    sink: Any = None
     try:
         # Subscribe first, then reach the service: once it answers, it knows the subscriptions.
         stream = client.messages(("estimate", "truth", "rejected"), vehicles=args.vehicles, maxsize=args.buffer)
@@ -980,16 +1054,28 @@ def main(argv: Sequence[str] | None = None) -> int:
                     _say(f"no service answered on {args.connect} (prefix {args.prefix}) within {args.wait:g} s; "
                          "waiting for estimates anyway")
                     break
-        context = foxglove.Context()
-        try:
-            server = foxglove.start_server(name="attitude-view", host=args.host, port=args.port, context=context)
-        except Exception as e:  # the port is taken, the address is wrong
-            _say(f"cannot start the Foxglove WebSocket server on {args.host}:{args.port}: {e}")
-            return 1
-        view = View(context, prefix=args.prefix, max_rate=args.max_rate, republish_s=args.republish)
-        _say(f"Foxglove WebSocket server on ws://{args.host}:{server.port}; following {args.prefix}/{args.vehicles} "
-             f"on {args.connect}. In Foxglove: Open connection → Foxglove WebSocket → ws://localhost:{server.port}, "
-             "then import the layout (attitude-view --write-layout FILE).")
+        following = f"following {args.prefix}/{args.vehicles} on {args.connect}"
+        if args.sink == "rerun":
+            try:
+                server = view_rerun.RerunServer(args.host, args.grpc_port, args.web_port, args.memory_limit)
+            except (OSError, RuntimeError) as e:
+                _say(f"cannot start Rerun's server on {args.host} (ports {args.grpc_port}, {args.web_port}): {e}")
+                return 1
+            _, sink = view_rerun.open_recording(server, layout_vehicles, truth=not args.no_truth)
+            _say(f"Rerun's web viewer on {server.url} (gRPC {server.grpc_url}); {following}. Open the first address "
+                 f"in a browser (or a Rerun viewer: rerun {server.grpc_url}).")
+        else:
+            context = foxglove.Context()
+            try:
+                server = foxglove.start_server(name="attitude-view", host=args.host, port=args.port, context=context)
+            except Exception as e:  # the port is taken, the address is wrong
+                _say(f"cannot start the Foxglove WebSocket server on {args.host}:{args.port}: {e}")
+                return 1
+            sink = FoxgloveSink(context)
+            _say(f"Foxglove WebSocket server on ws://{args.host}:{server.port}; {following}. In Foxglove: Open "
+                 f"connection → Foxglove WebSocket → ws://localhost:{server.port}, then import the layout "
+                 "(attitude-view --write-layout FILE).")
+        view = View(sink, prefix=args.prefix, max_rate=args.max_rate, republish_s=args.republish)
 
         def watch_demo() -> None:
             while not stop.is_set() and demo is not None:
@@ -1006,6 +1092,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if stream is not None:
             stream.close()
+        if sink is not None and hasattr(sink, "close"):
+            sink.close()  # Rerun: the last messages reach the server before it stops
         if server is not None:
             server.stop()
         client.close()

@@ -316,6 +316,10 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
     fn state(&self) -> FilterState {
         F::state(self)
     }
+
+    fn state_into(&self, into: &mut FilterState) {
+        F::state_into(self, into)
+    }
 }
 
 #[cfg(test)]

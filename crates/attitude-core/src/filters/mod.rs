@@ -293,6 +293,14 @@ pub trait FilterCore: Send {
     fn state(driver: &Driver<Self>) -> FilterState
     where
         Self: Sized;
+    /// [`FilterCore::state`] written over `into`, reusing its allocations where the filter has
+    /// large ones (the particle cloud); the same value as `state`.
+    fn state_into(driver: &Driver<Self>, into: &mut FilterState)
+    where
+        Self: Sized,
+    {
+        *into = Self::state(driver);
+    }
 }
 
 /// Object-safe interface every filter is used through.
@@ -344,6 +352,9 @@ pub trait AttitudeFilter: Send {
     /// The filter's complete state as plain data, for a checkpoint ([`FilterState::restore`]
     /// rebuilds the filter from it).
     fn state(&self) -> FilterState;
+    /// [`AttitudeFilter::state`] written over `into`, reusing its allocations
+    /// ([`FilterCore::state_into`]).
+    fn state_into(&self, into: &mut FilterState);
 }
 
 /// Largest gyro rate a filter takes, rad/s.

@@ -20,10 +20,11 @@
 //! **Memory.** A kept state is the filter's plain-data state ([`FilterState`]) and the rest of the
 //! vehicle's processing state: about 2.6 kB for the MEKF or USQUE (4.6 kB with the IMU pipeline of a
 //! vehicle fed `P/V/imu`), plus 64 bytes per particle for the QPF (the cloud). A state is kept every
-//! `max_lag / KEPT_PER_LAG` of sample time, so at most `KEPT_PER_LAG + 2` are held; the log holds the
+//! `max_lag / KEPT_PER_LAG` of sample time, so at most `KEPT_PER_LAG + 2` are held (and the last one
+//! dropped, whose allocations the next one kept reuses, counted with them); the log holds the
 //! samples of the lag and one interval more (112 bytes a gyro or IMU sample). A star-tracker
 //! spacecraft (10 Hz gyro, 1 Hz sets, the default 2 s lag) holds under 30 kB with a Kalman filter,
-//! about 540 kB with a QPF of 1000 particles, 5.2 MB with 10⁴; a 100 Hz IMU vehicle about 67 kB
+//! about 540 kB with a QPF of 1000 particles, 5.2 MB with 10⁴; a 100 Hz IMU vehicle about 71 kB
 //! (`tests.rs` pins these). Everything together is capped at `time.history_bytes` per vehicle
 //! (default 8 MiB): states that do not fit as often are kept more rarely, down to one per lag; when
 //! even that exceeds the cap the oldest go first (the history covers less than the lag, and a sample
@@ -66,6 +67,7 @@ impl Key {
 
 /// Everything processing a sample changes in a [`VehicleState`] (the arrival side, the reorder window
 /// and the configuration are not: a replay leaves them alone).
+#[derive(Default)]
 struct Processing {
     filter: Option<FilterState>,
     seq: u64,
@@ -111,7 +113,13 @@ pub(super) struct History {
     log: VecDeque<Logged>,
     /// Log position of `log[0]`.
     base: u64,
+    /// Bytes held, the spare's included.
     bytes: usize,
+    /// The last state dropped, and its bytes, refilled by the next state kept: copying a particle
+    /// cloud into arrays already there is a copy, a new one also allocates and faults fresh pages in
+    /// (a 1000-particle QPF every 0.25 s of samples; BENCHMARKS.md, "The service under load"). Held
+    /// only while it fits the cap, so the states held are as many as without it.
+    spare: Option<(Box<Processing>, usize)>,
 }
 
 /// Bytes a map entry costs beyond its key and value (a B-tree node's share, roughly).
@@ -168,11 +176,9 @@ impl History {
         self.base + self.log.len() as u64
     }
 
-    /// Drops the oldest kept state and the samples only it needed.
-    fn drop_oldest(&mut self) {
-        let Some(k) = self.kept.pop_front() else {
-            return;
-        };
+    /// Drops the oldest kept state and the samples only it needed; returns the state and its bytes.
+    fn drop_oldest(&mut self) -> Option<(Box<Processing>, usize)> {
+        let k = self.kept.pop_front()?;
         self.bytes -= k.bytes;
         let until = self.kept.front().map_or(self.end(), |n| n.at);
         while self.base < until {
@@ -180,20 +186,38 @@ impl History {
             self.bytes -= l.bytes;
             self.base += 1;
         }
+        Some((k.state, k.bytes))
     }
 
     /// Keeps the history within the lag behind `last_t` (the oldest state kept is the newest one at or
-    /// before the lag's start, so every sample within the lag has one) and within the byte cap.
+    /// before the lag's start, so every sample within the lag has one) and within the byte cap (the
+    /// spare goes first).
     fn trim(&mut self, last_t: Option<f64>, policy: &Policy) {
         if let Some(last_t) = last_t {
             let horizon = last_t - policy.max_lag_s;
             while self.kept.len() >= 2 && self.kept[1].last.is_some_and(|l| l.t_s < horizon) {
-                self.drop_oldest();
+                if let Some((state, bytes)) = self.drop_oldest() {
+                    if self.spare.is_none() && self.bytes + bytes <= policy.history_bytes {
+                        self.bytes += bytes;
+                        self.spare = Some((state, bytes));
+                    }
+                }
             }
         }
-        while self.bytes > policy.history_bytes && !self.kept.is_empty() {
-            self.drop_oldest();
+        while self.bytes > policy.history_bytes {
+            if let Some((_, bytes)) = self.spare.take() {
+                self.bytes -= bytes;
+            } else if self.drop_oldest().is_none() {
+                break;
+            }
         }
+    }
+
+    /// The spare state, if there is one, taken out of the count.
+    fn take_spare(&mut self) -> Option<Box<Processing>> {
+        let (state, bytes) = self.spare.take()?;
+        self.bytes -= bytes;
+        Some(state)
     }
 
     /// The sample interval between kept states for states of `bytes`: the lag over
@@ -236,27 +260,45 @@ impl VehicleState {
             + map_bytes(&self.sensor_state)
     }
 
-    fn processing(&self) -> Processing {
-        Processing {
-            filter: match &self.slot {
-                Slot::Tracking(f) => Some(f.state()),
-                Slot::Initializing => None,
-            },
-            seq: self.seq,
-            generation: self.generation,
-            last_t: self.last_t,
-            last_key: self.last_key,
-            last_gyro: self.last_gyro,
-            gate: self.gate.clone(),
-            consecutive_gated: self.consecutive_gated,
-            consecutive_failures: self.consecutive_failures,
-            rollbacks: self.rollbacks,
-            reinits: self.reinits.clone(),
-            last_good: self.last_good.clone(),
-            sensor_state: self.sensor_state.clone(),
-            ahrs: self.ahrs.clone().map(Box::new),
-            last_imu_estimate_t: self.last_imu_estimate_t,
+    /// The processing state written over `p`, reusing its allocations (the filter's through
+    /// [`AttitudeFilter::state_into`]).
+    fn processing_into(&self, p: &mut Processing) {
+        let Processing {
+            filter,
+            seq,
+            generation,
+            last_t,
+            last_key,
+            last_gyro,
+            gate,
+            consecutive_gated,
+            consecutive_failures,
+            rollbacks,
+            reinits,
+            last_good,
+            sensor_state,
+            ahrs,
+            last_imu_estimate_t,
+        } = p;
+        match (&self.slot, filter.as_mut()) {
+            (Slot::Tracking(f), Some(s)) => f.state_into(s),
+            (Slot::Tracking(f), None) => *filter = Some(f.state()),
+            (Slot::Initializing, _) => *filter = None,
         }
+        *seq = self.seq;
+        *generation = self.generation;
+        *last_t = self.last_t;
+        *last_key = self.last_key;
+        *last_gyro = self.last_gyro;
+        gate.clone_from(&self.gate);
+        *consecutive_gated = self.consecutive_gated;
+        *consecutive_failures = self.consecutive_failures;
+        *rollbacks = self.rollbacks;
+        reinits.clone_from(&self.reinits);
+        last_good.clone_from(&self.last_good);
+        sensor_state.clone_from(&self.sensor_state);
+        *ahrs = self.ahrs.clone().map(Box::new);
+        *last_imu_estimate_t = self.last_imu_estimate_t;
     }
 
     /// Is `key` older than what the vehicle has processed?
@@ -432,11 +474,13 @@ impl VehicleState {
         if !due {
             return;
         }
+        let mut state = self.history.take_spare().unwrap_or_default();
+        self.processing_into(&mut state);
         let kept = Kept {
             at: self.history.end(),
             last: self.last_key,
             t_s: key.t_s,
-            state: Box::new(self.processing()),
+            state,
             bytes,
         };
         self.history.bytes += bytes;

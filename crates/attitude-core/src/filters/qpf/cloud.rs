@@ -5,7 +5,7 @@ use super::*;
 
 /// The particle cloud, structure of arrays (the layout the per-particle loops vectorise over):
 /// quaternion components, gyro biases (rad/s) and normalised weights (`Σ w = 1`), all of one length.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct Cloud {
     pub qx: Vec<f64>,
     pub qy: Vec<f64>,
@@ -15,6 +15,37 @@ pub struct Cloud {
     pub by: Vec<f64>,
     pub bz: Vec<f64>,
     pub w: Vec<f64>,
+}
+
+impl Clone for Cloud {
+    fn clone(&self) -> Self {
+        let mut c = Cloud::default();
+        c.clone_from(self);
+        c
+    }
+
+    /// Copies into the arrays already there (a history's recycled state): no allocation when the
+    /// sizes agree.
+    fn clone_from(&mut self, source: &Self) {
+        let Cloud {
+            qx,
+            qy,
+            qz,
+            qw,
+            bx,
+            by,
+            bz,
+            w,
+        } = self;
+        qx.clone_from(&source.qx);
+        qy.clone_from(&source.qy);
+        qz.clone_from(&source.qz);
+        qw.clone_from(&source.qw);
+        bx.clone_from(&source.bx);
+        by.clone_from(&source.by);
+        bz.clone_from(&source.bz);
+        w.clone_from(&source.w);
+    }
 }
 
 impl Cloud {

@@ -42,12 +42,12 @@ macro_rules! each8 {
             let $g = i / LANES;
             // (Plain loops, no closures: a closure would lose the target features.)
             let mut $x = [$v::splat(0.0); NI];
-            for k in 0..NI {
-                $x[k] = $v::load(&ins[k][i..]);
+            for (xk, col) in $x.iter_mut().zip(&ins) {
+                *xk = $v::load(&col[i..]);
             }
             let mut y = [$v::splat(0.0); NO];
-            for k in 0..NO {
-                y[k] = $v::load(&io[k][i..]);
+            for (yk, col) in y.iter_mut().zip(&io) {
+                *yk = $v::load(&col[i..]);
             }
             {
                 let $y = &mut y;
@@ -62,16 +62,16 @@ macro_rules! each8 {
             let m = n - i;
             let $g = i / LANES;
             let mut $x = [$v::splat(0.0); NI];
-            for k in 0..NI {
-                let mut a = [pad[k]; LANES];
-                a[..m].copy_from_slice(&ins[k][i..n]);
-                $x[k] = $v::from_array(a);
+            for ((xk, col), p) in $x.iter_mut().zip(&ins).zip(pad) {
+                let mut a = [p; LANES];
+                a[..m].copy_from_slice(&col[i..n]);
+                *xk = $v::from_array(a);
             }
             let mut y = [$v::splat(0.0); NO];
-            for k in 0..NO {
-                let mut a = [pad_io[k]; LANES];
-                a[..m].copy_from_slice(&io[k][i..n]);
-                y[k] = $v::from_array(a);
+            for ((yk, col), p) in y.iter_mut().zip(&io).zip(pad_io) {
+                let mut a = [p; LANES];
+                a[..m].copy_from_slice(&col[i..n]);
+                *yk = $v::from_array(a);
             }
             {
                 let $y = &mut y;

@@ -472,6 +472,42 @@ impl FilterCore for Qpf {
         )
     }
 
+    fn state_into(driver: &Driver<Self>, into: &mut FilterState) {
+        let FilterState::Qpf(d, s) = into else {
+            *into = Self::state(driver);
+            return;
+        };
+        let f = driver.core();
+        *d = driver.driver_state();
+        // (Every field named: one added to the state does not compile until it is copied here.)
+        let QpfState {
+            fiducial,
+            options,
+            gyro,
+            gyro_errors,
+            cloud,
+            q_prop,
+            q_hat,
+            beta_hat,
+            p_hat,
+            stale,
+            rng,
+            diagnostics,
+        } = s;
+        *fiducial = f.fiducial;
+        *options = f.options;
+        *gyro = f.gyro;
+        *gyro_errors = f.gyro_errors;
+        cloud.clone_from(&f.cloud);
+        *q_prop = f.q_prop;
+        *q_hat = f.q_hat;
+        *beta_hat = f.beta_hat;
+        *p_hat = f.p_hat;
+        *stale = f.stale;
+        *rng = f.rng.state();
+        diagnostics.clone_from(&f.diagnostics);
+    }
+
     fn estimate(&self) -> Estimate {
         let (q, bias, cov) = if self.stale {
             // Between updates: the cloud's moments about its re-centred fiducial, computed without
