@@ -1,7 +1,7 @@
 //! Sending inputs to a dynamic fleet the way it scales (`loadgen --routed`, `simulate --routed`; the
 //! Python client's `routed=True` does the same): every input on its routed key `P/V/<leaf>/<r>`, which
 //! only the route's owner subscribes to, and the same inputs batched per route on
-//! `P/@/standby/<r>/inputs` every flush interval (20 ms), which only the route's standby members
+//! `P/@/standby/<r>/inputs` every flush interval ([`FLUSH_S`]), which only the route's standby members
 //! subscribe to. The sender computes the route ([`route_of`]); nothing else about the fleet.
 //!
 //! A single instance takes routed inputs too (and no batch): routed senders work against either.

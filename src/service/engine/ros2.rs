@@ -18,9 +18,10 @@ impl Engine {
     ) -> Option<Arc<Vehicle>> {
         let edge = self.ros2.as_ref()?;
         let (vehicle, input, ty, hash) = edge.route(&inbound.key)?;
+        // (Another member's vehicle: nothing kept. ROS 2 inputs are not routed, every member of a
+        // fleet receives them, and a takeover replays only the JSON leaves' inputs: a vehicle fed over
+        // ROS continues on its new owner from the last estimate and the ROS inputs from then on.)
         if !self.owns(vehicle) {
-            let vehicle = vehicle.to_string();
-            self.keep_standby(&vehicle, inbound);
             return None;
         }
         let limits = &self.config.limits.input;
