@@ -327,8 +327,8 @@ fn balance(owner: &mut [usize; ROUTES], holders: &[Vec<usize>; ROUTES], n: usize
             queue.iter().for_each(|&m| seen[m] = true);
             let mut found = None;
             'search: while let Some(m) = queue.pop_front() {
-                for r in 0..ROUTES {
-                    if owner[r] != m || !served(r) {
+                for (r, &owned_by) in owner.iter().enumerate() {
+                    if owned_by != m || !served(r) {
                         continue;
                     }
                     let Some(o) = other(r, m) else { continue };

@@ -167,7 +167,7 @@ mod tests {
         w.push("sc-2", "vectors", b"");
         assert_eq!((w.records(), w.is_empty()), (2, false));
         let b = w.take();
-        assert!(w.is_empty() && w.len() == 0);
+        assert!(w.is_empty());
         // The format, byte for byte: a u16 key length, the key, a u32 payload length, the payload.
         assert_eq!(&b[..2], &8u16.to_le_bytes());
         assert_eq!(&b[2..10], b"sc1/gyro");

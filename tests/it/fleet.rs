@@ -543,7 +543,7 @@ fn routed_inputs_reach_owners_and_standbys_only() {
         );
         for j in (1..4).filter(|&j| j != i) {
             assert!(
-                published_by(j).get(*v).is_none(),
+                !published_by(j).contains_key(*v),
                 "{v} also at {}",
                 names[j]
             );

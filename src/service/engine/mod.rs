@@ -21,6 +21,10 @@ mod queries;
 mod ros2;
 
 pub use fleet::RoutePlan;
+
+/// A route's estimates waiting for the next batch to its standby members: by vehicle, whether it is
+/// new since the last batch and the serialised estimate.
+type Outgoing = HashMap<String, (bool, Vec<u8>)>;
 pub use metrics::METRICS_ENCODING;
 pub use output::{EstimateOutlet, Outlets, Sink};
 
@@ -247,7 +251,7 @@ struct FleetState {
     routes: Mutex<Vec<fleet::RouteStandby>>,
     /// Per route owned: each vehicle's last estimate, and whether it was published since the last
     /// batch to the route's standby members.
-    outgoing: Mutex<Vec<HashMap<String, (bool, Vec<u8>)>>>,
+    outgoing: Mutex<Vec<Outgoing>>,
     /// The routes to subscribe to, for the service (`service::run`).
     plan: Option<tokio::sync::watch::Sender<RoutePlan>>,
     takeovers: AtomicU64,
