@@ -182,9 +182,28 @@ fn the_configuration_is_checked() {
         (r#"{"diagnostics_period_s": -1}"#, "diagnostics_period_s"),
         (r#"{"node_name": "a/b"}"#, "node_name"),
         (r#"{"unknown": 1}"#, "unknown"),
+        // The bridge's keys under the service's prefix: `attitude/V/imu` would be read as JSON input.
+        (
+            r#"{"enabled": true, "format": "bridge", "namespace": "attitude", "imu_topic": "imu"}"#,
+            "overlap the service's inputs attitude/*/imu",
+        ),
+        (
+            r#"{"enabled": true, "format": "bridge", "namespace": "attitude", "imu_topic": "imu/raw", "mag_topic": ""}"#,
+            "overlap the service's inputs attitude/*/*/*",
+        ),
     ] {
         let text = format!(r#"{{"service": {{"ros2": {bad}}}}}"#);
         let e = parse(&text, "test").unwrap_err().to_string();
         assert!(e.contains(says), "{bad}: {e}");
+    }
+    // The same namespace is fine off, and the default bridge keys (no namespace) stay apart.
+    for good in [
+        r#"{"enabled": false, "format": "bridge", "namespace": "attitude", "imu_topic": "imu"}"#,
+        r#"{"enabled": true, "format": "bridge"}"#,
+        r#"{"enabled": true, "format": "bridge", "namespace": "robots"}"#,
+        r#"{"enabled": true}"#,
+    ] {
+        let text = format!(r#"{{"service": {{"ros2": {good}}}}}"#);
+        assert!(parse(&text, "test").is_ok(), "{good}");
     }
 }

@@ -449,6 +449,9 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     };
     let fleet = validate_fleet(&raw.key_prefix, raw.fleet)?;
     let ros2 = crate::service::ros2::config::validate(raw.ros2)?;
+    if ros2.enabled {
+        ros2_keys_apart(&raw.key_prefix, &ros2)?;
+    }
     Ok(ServiceConfig {
         key_prefix: raw.key_prefix,
         default_filter,
@@ -473,6 +476,40 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         },
         ros2,
     })
+}
+
+/// The ROS 2 edge's subscriptions must not reach the service's own inputs (nor the reverse): the
+/// dispatcher reads a key as a vehicle's input first, so a ROS message on an overlapping key would be
+/// refused as JSON (e.g. the bridge format with `namespace` equal to `key_prefix` and a topic `imu`).
+fn ros2_keys_apart(prefix: &str, ros2: &crate::service::ros2::Ros2Config) -> Result<(), String> {
+    use super::keys::Ros2Keys;
+    use zenoh::key_expr::KeyExpr;
+    let keys = Keys::new(prefix);
+    let ours = [
+        keys.all(Leaf::Gyro),
+        keys.all(Leaf::Vectors),
+        keys.all(Leaf::Imu),
+        keys.routed_inputs(None),
+        keys.standby(None),
+    ];
+    let edge = Ros2Keys::new(ros2.format, ros2.domain_id, &ros2.namespace);
+    for topic in std::iter::once(&ros2.imu_topic).chain(ros2.mag_topic.as_ref()) {
+        let theirs = edge.subscription(topic);
+        let Ok(t) = KeyExpr::try_from(theirs.as_str()) else {
+            return Err(format!("service.ros2: {theirs:?} is not a key expression"));
+        };
+        for o in &ours {
+            let o = KeyExpr::try_from(o.as_str()).map_err(|e| e.to_string())?;
+            if t.intersects(&o) {
+                return Err(format!(
+                    "service.ros2: the ROS 2 topic keys {theirs} overlap the service's inputs {o} \
+                     (service.key_prefix {prefix:?}): give service.ros2.namespace (or the topics) \
+                     another first chunk"
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Applies `serve --routes` over the file's `service.fleet.routes`.
