@@ -9,6 +9,8 @@
 #   qpf   1000 vehicles × 10 Hz, a vector set (three stars) and a gyro sample each per tick,
 #         qpf:average with 1000 particles;                      target p99 ≤ 3× the echo's, nothing lost
 #   mekf  the same load with the MEKF;                          target p99 ≤ 2× the echo's, nothing lost
+#   qpf-spread, mekf-spread  the same loads with each vehicle at its own phase of the 100 ms
+#         (`loadgen --spread`, as independent vehicles send) instead of one burst per tick
 #   imu   10 vehicles replaying raw IMU samples at once, 100 samples per put, 100 puts/s each:
 #         100 000 samples/s, config/imu.json5 (the MEKF), an estimate per sample; target ≥ 100 000/s
 #   imu-capped  the same with service.imu.max_estimate_rate_hz = 100 (an estimate per vehicle every
@@ -36,6 +38,7 @@ out=$(mktemp -d /tmp/load-vs-echo.XXXXXX)
 conf=$out/conf; mkdir -p "$conf"
 echo '{ service: { filter: { kind: "qpf", fiducial: "average", particles: 1000 } } }' > "$conf/qpf.json5"
 echo '{ service: { filter: { kind: "mekf" } } }' > "$conf/mekf.json5"
+cp "$conf/qpf.json5" "$conf/qpf-spread.json5"; cp "$conf/mekf.json5" "$conf/mekf-spread.json5"
 cp config/imu.json5 "$conf/imu.json5"
 sed 's/max_estimate_rate_hz: 0,/max_estimate_rate_hz: 100,/' config/imu.json5 > "$conf/imu-capped.json5"
 grep -q 'max_estimate_rate_hz: 100,' "$conf/imu-capped.json5"
@@ -44,6 +47,7 @@ port=$((20000 + RANDOM % 20000))
 load_args() { # the loadgen options of a case
   case $1 in
     qpf|mekf) echo "--vehicles 1000 --rate 10 --duration $dur" ;;
+    qpf-spread|mekf-spread) echo "--vehicles 1000 --rate 10 --duration $dur --spread" ;;
     imu) echo "--vehicles 10 --imu 100 --rate 100 --duration $dur" ;;
     imu-capped) echo "--vehicles 10 --imu 100 --rate 100 --duration $dur --capped" ;;
   esac
