@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates the accuracy study of docs/accuracy.md: every filter on every standard scenario, the
 # fiducial comparison where it matters (few particles, diffuse clouds), and the particle-count sweep.
-# Writes docs/accuracy/<name>/{summary.json,summary.md,*.png}. About 15 minutes on 2 cores.
+# Writes docs/accuracy/<name>/{summary.json,summary.md,*.png}. About 1.5 minutes on 2 cores.
 #   RUNS=100 SWEEP_RUNS=100 PAIRED_RUNS=200 ./scripts/accuracy-study.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
