@@ -360,7 +360,7 @@ fn sweep_reports_one_row_per_particle_count() {
 ///   Measured: RMS/PCRB 0.951, 1.001, 1.034; ANEES 2.873.
 /// * star-tracker, 20 runs (seed 11, 1000 particles): every run converges; RMS/PCRB within `√(χ²ₖ/k)` of
 ///   its centre at 0.999, `k` = 20·60 on x, y ([0.933, 1.068] about 1) and 20·5 on z about 1.117: the
-///   particle filter is measurably above the bound on the boresight (docs/accuracy.md: about 14% at
+///   particle filter is measurably above the bound on the boresight (docs/accuracy.md: about 9% at
 ///   1000 particles; over 60 runs, seed 11: 1.009, 1.004, 1.117 with per-run spreads of 84, 81 and
 ///   7.8 samples), so z's bound is [0.864, 1.382];
 ///   ANEES in `χ²₆₀/20` = [1.517, 5.135] (at 20 runs its power against a covariance 1.5× off is 0.91
