@@ -42,6 +42,23 @@ pub enum ServiceError {
     State(#[from] persist::CheckpointError),
 }
 
+/// A flag that says whether any subscriber matches `publisher` (a publisher declared for this alone,
+/// never put on): work for an outlet nobody listens to is skipped.
+pub(crate) async fn matching_flag(
+    publisher: &zenoh::pubsub::Publisher<'_>,
+) -> Result<Arc<AtomicBool>, ServiceError> {
+    let anyone = Arc::new(AtomicBool::new(false));
+    let flag = anyone.clone();
+    // (Called at once with the current status when it matches, then at each change.)
+    publisher
+        .matching_listener()
+        .callback(move |s| flag.store(s.matching(), Ordering::Relaxed))
+        .background()
+        .await
+        .map_err(zerr)?;
+    Ok(anyone)
+}
+
 fn zerr(e: impl std::fmt::Display) -> ServiceError {
     ServiceError::Zenoh(e.to_string())
 }
@@ -317,15 +334,7 @@ pub async fn estimate_outlets(
         .allowed_destination(Locality::Remote)
         .await
         .map_err(zerr)?;
-    let anyone = Arc::new(AtomicBool::new(false));
-    let flag = anyone.clone();
-    // (Called at once with the current status when it matches, then at each change.)
-    watch
-        .matching_listener()
-        .callback(move |s| flag.store(s.matching(), Ordering::Relaxed))
-        .background()
-        .await
-        .map_err(zerr)?;
+    let anyone = matching_flag(&watch).await?;
     let session = session.clone();
     let outlets: Outlets = Arc::new(move |key: &str| match KeyExpr::try_from(key.to_string()) {
         Ok(key) => Box::new(Vehicle {

@@ -203,14 +203,7 @@ pub async fn start(
         .allowed_destination(Locality::Remote)
         .await
         .map_err(zerr)?;
-    let anyone = Arc::new(AtomicBool::new(false));
-    let flag = anyone.clone();
-    watch
-        .matching_listener()
-        .callback(move |s| flag.store(s.matching(), Ordering::Relaxed))
-        .background()
-        .await
-        .map_err(zerr)?;
+    let anyone = crate::service::matching_flag(&watch).await?;
     let shared = Arc::new(Shared {
         session: session.clone(),
         zid: session.zid().to_string(),
