@@ -196,12 +196,15 @@ pub async fn run(
         .declare_queryable(keys.instance_metrics(&instance))
         .await
         .map_err(zerr)?;
+    // (Following the route plan before joining: the first change after the join comes from the
+    // members' thread at any moment, and a receiver made after it would take it as seen, leaving the
+    // routes taken over without their input subscriptions until the next change.)
+    let mut plan = engine.route_plan();
     let membership = if dynamic {
         Some(join_fleet(&session, &engine, &threads.members, &mut routing).await?)
     } else {
         None
     };
-    let mut plan = engine.route_plan();
     tracing::info!(
         prefix = keys.prefix(),
         instance = %instance,
