@@ -347,3 +347,16 @@ def test_the_view_rerun_extra_installs_in_the_fresh_venv(fresh_venv, tmp_path):
     assert proc.returncode == 0 and "no service answered" in log, log
     # Its server stopped with it (and was reaped).
     assert children and not [c for c in children if pathlib.Path(f"/proc/{c}").exists()], children
+
+
+def test_route_of_gives_the_contracts_test_vectors():
+    """The client's route (``routed=True``) against the test vectors written in proto/README.md (Routed
+    inputs), read from the contract's text, not from the service's code."""
+    text = (ROOT / "proto" / "README.md").read_text()
+    line = re.search(r"Test vectors: (.*?)\.", text.replace("\n", " ")).group(1)
+    vectors = re.findall(r"`([^`]*)`\s*→\s*`([0-9a-f])`", line)
+    assert len(vectors) >= 4, line
+    assert [(v, f"{attitude_client.route_of(v):x}") for v, _ in vectors] == vectors
+    # Every route is used: 16 000 ids spread within 10 % of even.
+    counts = np.bincount([attitude_client.route_of(f"v{i}") for i in range(16000)], minlength=16)
+    assert counts.min() > 900 and counts.max() < 1100, counts
