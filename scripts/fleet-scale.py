@@ -23,11 +23,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import pathlib
 import re
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -35,19 +33,7 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "clients" / "python" / "src"))
-TICK = os.sysconf("SC_CLK_TCK")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def cpu_s(pid: int) -> float:
-    stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
-    f = stat[stat.rindex(")") + 2 :].split()
-    return (int(f[11]) + int(f[12])) / TICK
+from fleet_common import cpu_s, free_port, zenohd  # noqa: E402 (scripts/ on sys.path: this script's folder)
 
 
 def sockets() -> dict[tuple[int, str, str], tuple[int, int]]:
@@ -69,11 +55,6 @@ def sockets() -> dict[tuple[int, str, str], tuple[int, int]]:
             conns[(int(m.group(1)), f[3], f[4])] = (int(rx.group(1)) if rx else 0, int(tx.group(1)) if tx else 0)
         head = None
     return conns
-
-
-def zenohd() -> str:
-    out = subprocess.run(["bash", str(ROOT / "scripts" / "ensure-zenohd.sh")], check=True, capture_output=True, text=True)
-    return out.stdout.strip().splitlines()[-1]
 
 
 def main() -> None:
