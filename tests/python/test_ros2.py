@@ -158,7 +158,10 @@ def test_graph_tokens_parse_as_rmw_zenoh_does(ros_service):
         pub = peer.publisher("/gsat/imu/data_raw", IMU)
         for i in range(40):
             pub.put(rp.imu_msg(i * 0.01, [0, 0, 0], [0, 0, 9.81]))
-        assert rp.wait_for(lambda: any("%gsat%imu%data/" in k for k in rp.liveliness_keys(peer.session)), 10)
+        # The vehicle's three tokens (its publisher, its Imu and its MagneticField subscriptions) are
+        # declared one after another: wait for all of them, not the first.
+        wanted = ("%gsat%imu%data/", "%gsat%imu%data_raw/", "%gsat%imu%mag/")
+        assert rp.wait_for(lambda: all(any(w in k for k in rp.liveliness_keys(peer.session)) for w in wanted), 10)
         keys = [k for k in rp.liveliness_keys(peer.session) if f"/{peer.zid}/" not in k]
     finally:
         peer.close()
