@@ -5,7 +5,8 @@
     .venv/bin/python scripts/broad-vqf-reference.py ../shared/data/broad/*.hdf5 --out config/imu-tuning-vqf.json
 
 VQF 2.x (PyPI `vqf`, Laidig & Seel 2023) with its defaults, online (`updateBatch`, 9D), scored with the metric of
-attitude_client.replay (BROAD's).
+attitude_client.replay (BROAD's; a recording whose truth has its own frames, `align = "both"`, aligned on its own
+first). Any recording attitude_client.replay reads: BROAD-layout HDF5 or a CSV trial (docs/recordings.md).
 
 Data: BROAD (D. Laidig, M. Caruso, A. Cereatti, T. Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0.
 """
@@ -29,7 +30,7 @@ def main() -> int:
     out = {"vqf_version": metadata.version("vqf"), "attribution": ATTRIBUTION}
     for p in args.trials:
         trial = load_trial(p, None)
-        s = broad_scores(run_vqf(trial), None, trial["opt_quat"], trial["movement"])
+        s = broad_scores(run_vqf(trial), None, trial["opt_quat"], trial["movement"], trial["truth"])
         out[trial["name"]] = {k: s[k] for k in ("total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg")}
     args.out.write_text(json.dumps(out, indent=2) + "\n")
     return 0

@@ -41,6 +41,148 @@ pub struct Sample {
     pub p_att: Matrix3<f64>,
 }
 
+/// How a recording's truth relates to the estimator's frames, and what the truth itself may be off by.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TruthModel {
+    pub align: Align,
+    /// The truth's own tilt error (1σ per horizontal axis), rad: added to the tilt block of the
+    /// covariance when honesty is scored.
+    pub tilt_sigma_rad: f64,
+    /// The truth's time-stamp uncertainty against the IMU's clock (1σ), s: the truth is then off by
+    /// the rotation over it, `σ_t² ω ωᵀ` about the turn axis, added to the covariance when honesty is
+    /// scored.
+    pub time_sigma_s: f64,
+}
+
+impl Default for TruthModel {
+    /// BROAD's: the truth in East-North-Up with magnetic north, the body the IMU's, 0.2° of tilt.
+    fn default() -> Self {
+        TruthModel {
+            align: Align::None,
+            tilt_sigma_rad: TRUTH_TILT_SIGMA_RAD,
+            time_sigma_s: 0.0,
+        }
+    }
+}
+
+/// Which frames of the truth differ from the estimator's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Align {
+    /// The truth is body → East-North-Up with magnetic north, of the IMU's body (BROAD): no
+    /// alignment; honesty removes the recording's constant heading offset (optical against magnetic
+    /// north).
+    None,
+    /// The truth has its own reference and body frames: each estimator is aligned on its own by the
+    /// constant rotations `L` (reference) and `R` (body) with `q_truth ≈ L·q_est·R` (Hamilton) over
+    /// the movement samples ([`alignment`]), and scored against the truth carried into its frames,
+    /// `L⁻¹·q_truth·R⁻¹`. What is scored is drift and inconsistency, not the absolute heading.
+    Both,
+}
+
+/// The constant rotations of [`Align::Both`]: `q_truth ≈ L·q_est·R` (Hamilton products of body →
+/// reference quaternions; `L` turns the estimator's reference frame into the truth's, `R` the truth's
+/// body frame into the estimator's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alignment {
+    pub reference: Quaternion,
+    pub body: Quaternion,
+}
+
+/// The Hamilton product `a·b` of two quaternions in this project's type (whose Shuster product is the
+/// Hamilton product reversed).
+fn ham(a: &Quaternion, b: &Quaternion) -> Quaternion {
+    b.compose(a)
+}
+
+impl Alignment {
+    /// The truth carried into the estimator's frames: `L⁻¹·q_truth·R⁻¹`.
+    pub fn truth_in_estimator_frames(&self, truth: &Quaternion) -> Quaternion {
+        ham(&ham(&self.reference.inverse(), truth), &self.body.inverse())
+    }
+}
+
+/// The alignment of an estimator's output to the truth over the movement samples. `R` starts from the
+/// relative rotations alone (a hand–eye problem: `q_est,i⁻¹·q_est,j = R·(q_true,i⁻¹·q_true,j)·R⁻¹`, so
+/// `R` turns the truth's rotation vectors into the estimate's; [`body_start`]), then alternately the
+/// weighted quaternion average of `L = q_truth·R⁻¹·q_est⁻¹` with `R` held and of
+/// `R = q_est⁻¹·L⁻¹·q_truth` with `L` held, until neither moves by more than 1e-9 rad (at most 50
+/// rounds). (Alternating from `R = 1` alone can stop far off when the frames differ by a half turn,
+/// as a pendulum's do.) `None` without a pair to align.
+pub fn alignment(
+    estimates: &[Option<Sample>],
+    truth: &[Option<Quaternion>],
+    movement: &[bool],
+) -> Option<Alignment> {
+    let pairs: Vec<(Quaternion, Quaternion)> = estimates
+        .iter()
+        .zip(truth)
+        .zip(movement)
+        .filter_map(|((e, t), m)| match (e, t, m) {
+            (Some(e), Some(t), true) => Some((e.q, *t)),
+            _ => None,
+        })
+        .collect();
+    if pairs.is_empty() {
+        return None;
+    }
+    let average_l = |r: &Quaternion, previous: Option<&Quaternion>| {
+        let mut acc = crate::attitude::AverageAccumulator::new();
+        for (e, t) in &pairs {
+            acc.add(&ham(&ham(t, &r.inverse()), &e.inverse()), 1.0);
+        }
+        acc.finish(previous).ok().map(|a| a.q)
+    };
+    let mut r = body_start(&pairs);
+    let mut l = average_l(&r, None)?;
+    for _ in 0..50 {
+        let l_new = average_l(&r, Some(&l))?;
+        let mut acc = crate::attitude::AverageAccumulator::new();
+        for (e, t) in &pairs {
+            acc.add(&ham(&ham(&e.inverse(), &l_new.inverse()), t), 1.0);
+        }
+        let r_new = acc.finish(Some(&r)).ok()?.q;
+        let moved = ham(&l_new, &l.inverse())
+            .angle()
+            .max(ham(&r_new, &r.inverse()).angle());
+        (l, r) = (l_new, r_new);
+        if moved < 1e-9 {
+            break;
+        }
+    }
+    Some(Alignment {
+        reference: l,
+        body: r,
+    })
+}
+
+/// The start of [`alignment`]'s `R`: with the pairs of samples `(i, i + 16)`, the rotation that best
+/// turns the rotation vectors of the truth's relative rotations into the estimate's (Wahba's problem,
+/// solved by an SVD; the vectors weigh by their angle). The identity without rotation.
+fn body_start(pairs: &[(Quaternion, Quaternion)]) -> Quaternion {
+    const STEP: usize = 16;
+    let mut b = Matrix3::zeros();
+    for w in pairs.windows(STEP + 1) {
+        let ((e0, t0), (e1, t1)) = (w[0], w[STEP]);
+        let ve = ham(&e0.inverse(), &e1).to_rotation_vector();
+        let vt = ham(&t0.inverse(), &t1).to_rotation_vector();
+        b += ve * vt.transpose();
+    }
+    if b.amax() == 0.0 || !b.iter().all(|v| v.is_finite()) {
+        return Quaternion::IDENTITY;
+    }
+    let svd = b.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Quaternion::IDENTITY;
+    };
+    let d = (u * v_t).determinant().signum();
+    let m = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
+    // m is the Hamilton rotation matrix of R; this project's attitude matrix is its transpose.
+    Quaternion::from_attitude_matrix(&m.transpose())
+        .normalized()
+        .unwrap_or(Quaternion::IDENTITY)
+}
+
 /// A trial's scores.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scores {
@@ -52,8 +194,19 @@ pub struct Scores {
     pub tilt_nees_median: f64,
     /// Fraction of movement samples whose heading error (offset removed) lies within 99%.
     pub heading_in99: f64,
+    /// Fraction of movement samples whose 3-axis error (heading offset removed) lies within the 99%
+    /// ellipsoid (χ²₃), and the median of that NEES (honest: 2.37).
+    #[serde(default)]
+    pub att_in99: f64,
+    #[serde(default)]
+    pub att_nees_median: f64,
     /// The removed constant heading offset, deg.
     pub heading_offset_deg: f64,
+    /// With [`Align::Both`], the angles of the alignment's rotations `L` and `R`, deg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub align_reference_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub align_body_deg: Option<f64>,
     /// Movement samples scored (with truth and an estimate).
     pub scored: usize,
 }
@@ -67,26 +220,53 @@ pub fn error_quaternion(estimate: &Quaternion, truth: &Quaternion) -> [f64; 4] {
     [s * e.w, s * e.x, s * e.y, s * e.z]
 }
 
-/// Scores the estimates against the truth over the `movement` samples. Samples without an estimate or
-/// without truth are left out.
+/// χ²₃ 99% quantile.
+pub const CHI2_3_99: f64 = 11.344_866_730_144_373;
+
+/// Scores the estimates against the truth over the `movement` samples, BROAD's way (no alignment, the
+/// truth's tilt error 0.2°). Samples without an estimate or without truth are left out.
 pub fn score(
     estimates: &[Option<Sample>],
     truth: &[Option<Quaternion>],
     movement: &[bool],
 ) -> Scores {
+    score_with(estimates, truth, movement, None, &TruthModel::default())
+}
+
+/// Scores the estimates against the truth over the `movement` samples with the truth's frames and
+/// errors as `model` says; `rates` (body frame, rad/s, per sample) turn the truth's time-stamp
+/// uncertainty into an angle. Samples without an estimate or without truth are left out.
+pub fn score_with(
+    estimates: &[Option<Sample>],
+    truth: &[Option<Quaternion>],
+    movement: &[bool],
+    rates: Option<&[Vector3<f64>]>,
+    model: &TruthModel,
+) -> Scores {
     let n = estimates.len().min(truth.len()).min(movement.len());
+    let aligned = match model.align {
+        Align::None => None,
+        Align::Both => alignment(estimates, truth, movement),
+    };
     let mut tot = Vec::new();
     let mut head = Vec::new();
     let mut incl = Vec::new();
     let mut nees = Vec::new();
+    let mut thetas = Vec::new();
     let mut psi = Vec::new();
     let mut psi_sigma = Vec::new();
-    let truth2 = TRUTH_TILT_SIGMA_RAD * TRUTH_TILT_SIGMA_RAD;
+    let mut covs = Vec::new();
+    let truth2 = model.tilt_sigma_rad * model.tilt_sigma_rad;
+    let t2 = model.time_sigma_s * model.time_sigma_s;
     for k in 0..n {
         let (Some(est), Some(tq), true) = (&estimates[k], &truth[k], movement[k]) else {
             continue;
         };
-        let e = error_quaternion(&est.q, tq);
+        let tq = match &aligned {
+            Some(a) => a.truth_in_estimator_frames(tq),
+            None => *tq,
+        };
+        let e = error_quaternion(&est.q, &tq);
         let (w, z) = (e[0].min(1.0), e[3]);
         tot.push(2.0 * w.acos());
         head.push(2.0 * (z / w).abs().atan());
@@ -101,9 +281,14 @@ pub fn score(
         };
         // R: body → reference of the estimate = A(q̂)ᵀ.
         let r = est.q.attitude_matrix().transpose();
-        let pe = r * est.p_att * r.transpose();
-        let ph = Matrix2::new(pe[(0, 0)], pe[(0, 1)], pe[(1, 0)], pe[(1, 1)])
-            + Matrix2::identity() * truth2;
+        let mut pe = r * est.p_att * r.transpose();
+        pe[(0, 0)] += truth2;
+        pe[(1, 1)] += truth2;
+        if let Some(w) = rates.and_then(|r| r.get(k)) {
+            let wr = r * w;
+            pe += wr * wr.transpose() * t2;
+        }
+        let ph = Matrix2::new(pe[(0, 0)], pe[(0, 1)], pe[(1, 0)], pe[(1, 1)]);
         let th = Vector2::new(theta[0], theta[1]);
         nees.push(match ph.cholesky() {
             Some(c) => th.dot(&c.solve(&th)),
@@ -111,6 +296,8 @@ pub fn score(
         });
         psi.push(theta[2]);
         psi_sigma.push(pe[(2, 2)].max(0.0).sqrt());
+        thetas.push(theta);
+        covs.push(pe);
     }
     let rmse = |x: &[f64]| {
         if x.is_empty() {
@@ -132,6 +319,18 @@ pub fn score(
         .filter(|(p, s)| (*p - offset).abs() <= Z_99 * **s)
         .count();
     let tilt_in = nees.iter().filter(|v| **v <= CHI2_2_99).count();
+    let mut att_nees: Vec<f64> = thetas
+        .iter()
+        .zip(&covs)
+        .map(|(th, p)| {
+            let th = Vector3::new(th[0], th[1], th[2] - offset);
+            match p.cholesky() {
+                Some(c) => th.dot(&c.solve(&th)),
+                None => f64::INFINITY,
+            }
+        })
+        .collect();
+    let att_in = att_nees.iter().filter(|v| **v <= CHI2_3_99).count();
     Scores {
         total_rmse_deg: rmse(&tot),
         heading_rmse_deg: rmse(&head),
@@ -139,7 +338,11 @@ pub fn score(
         tilt_in99: fraction(tilt_in, m),
         tilt_nees_median: median(&mut nees),
         heading_in99: fraction(heading_in, m),
+        att_in99: fraction(att_in, m),
+        att_nees_median: median(&mut att_nees),
         heading_offset_deg: offset.to_degrees(),
+        align_reference_deg: aligned.map(|a| a.reference.angle().to_degrees()),
+        align_body_deg: aligned.map(|a| a.body.angle().to_degrees()),
         scored: m,
     }
 }

@@ -125,6 +125,7 @@ mod tests {
             samples: Vec::new(),
             truth: Vec::new(),
             movement: Vec::new(),
+            truth_model: Default::default(),
         };
         for k in 0..700 {
             let time = k as f64 * dt;

@@ -7,17 +7,24 @@
 //! (`--set service.imu.acc.motion_gain=1.5`). Nothing of the pipeline is repeated here: a study and a
 //! tuning measure what the service does.
 //!
-//! **Trial file** (`scripts/broad-export.py` writes it from a BROAD HDF5 file), little-endian `f64`:
-//! a header `[n, rate_hz, 15]`, then per sample
+//! **Trial file** (`scripts/broad-export.py` writes it from a BROAD-layout HDF5 file), little-endian
+//! `f64`: a header `[n, rate_hz, 15]`, then per sample
 //! `[t, gx, gy, gz, ax, ay, az, mx, my, mz, qw, qx, qy, qz, movement]` (s, rad/s, m/s², any unit; the
-//! truth as the Hamilton quaternion of body → East-North-Up, NaN where unknown; movement 1/0).
+//! truth as the Hamilton quaternion of body → reference, NaN where unknown; movement 1/0), then
+//! optionally the truth's description as a UTF-8 JSON object ([`TruthMeta`]; without it the truth is
+//! BROAD's: body → East-North-Up with magnetic north, the IMU's own body frame).
+//!
+//! **CSV trial** (`NAME.csv`; what a user writes from their own motion capture, docs/recordings.md):
+//! lines `# key: value` for the same description (`align: both`, `truth_tilt_sigma_deg: 0.2`,
+//! `truth_time_sigma_s: 0.01`), a header line naming the fifteen columns above, then one line per
+//! sample; an empty truth field is unknown.
 
 use crate::attitude::Quaternion;
 use crate::filters::FilterSpec;
 use crate::sensors::{ImuSample, Measurement};
 use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
 use crate::service::vehicle::{Event, ImuDiagnostics, Published, VehicleState};
-use crate::study::broad::{score, Sample, Scores};
+use crate::study::broad::{score_with, Align, Sample, Scores, TruthModel};
 use crate::wire::ImuDiagnosticsMsg;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -48,21 +55,64 @@ pub struct Trial {
     pub samples: Vec<ImuSample>,
     pub truth: Vec<Option<Quaternion>>,
     pub movement: Vec<bool>,
+    /// How the truth relates to the estimator's frames and what it may be off by.
+    pub truth_model: TruthModel,
+}
+
+/// The description of a trial's truth, as a trial file's JSON trailer or a CSV trial's `#` lines
+/// hold it (every field optional; the defaults are BROAD's).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthMeta {
+    /// `none` (the truth is body → East-North-Up with magnetic north, of the IMU's body) or `both`
+    /// (its own reference and body frames: each estimator is aligned on its own).
+    #[serde(default)]
+    pub align: Option<Align>,
+    /// The truth's own tilt error, 1σ deg (default 0.2).
+    #[serde(default)]
+    pub truth_tilt_sigma_deg: Option<f64>,
+    /// The truth's time-stamp uncertainty against the IMU, 1σ s (default 0).
+    #[serde(default)]
+    pub truth_time_sigma_s: Option<f64>,
+    /// Where the recording comes from (attribution; not used).
+    #[serde(default)]
+    pub source: Option<String>,
+}
+
+impl TruthMeta {
+    /// The truth model it describes; `Err` for a value out of range.
+    pub fn model(&self) -> Result<TruthModel, String> {
+        let d = TruthModel::default();
+        let tilt = self
+            .truth_tilt_sigma_deg
+            .map_or(d.tilt_sigma_rad, f64::to_radians);
+        let time = self.truth_time_sigma_s.unwrap_or(d.time_sigma_s);
+        if !(tilt >= 0.0 && tilt.is_finite() && time >= 0.0 && time.is_finite()) {
+            return Err(format!(
+                "truth_tilt_sigma_deg and truth_time_sigma_s must be finite and ≥ 0 ({tilt}, {time})"
+            ));
+        }
+        Ok(TruthModel {
+            align: self.align.unwrap_or(Align::None),
+            tilt_sigma_rad: tilt,
+            time_sigma_s: time,
+        })
+    }
 }
 
 /// Parses a trial file's bytes (see the module documentation).
 pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
-    if bytes.len() % 8 != 0 || bytes.len() < 24 {
+    let f = |k: usize| -> Option<f64> {
+        bytes
+            .get(8 * k..8 * k + 8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+    };
+    let (Some(n), Some(rate), Some(cols)) = (f(0), f(1), f(2)) else {
         return Err(format!(
             "{} bytes is not a header of three f64 and rows",
             bytes.len()
         ));
-    }
-    let v: Vec<f64> = bytes
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().expect("chunks of 8")))
-        .collect();
-    let (n, rate, cols) = (v[0], v[1], v[2]);
+    };
     if cols != COLUMNS as f64 {
         return Err(format!("{cols} columns, expected {COLUMNS}"));
     }
@@ -70,26 +120,50 @@ pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
         return Err(format!("bad header: n = {n}, rate = {rate}"));
     }
     let n = n as usize;
-    let body = &v[3..];
-    if body.len() != n * COLUMNS {
+    let end = 8 * (3 + n * COLUMNS);
+    if bytes.len() < end {
         return Err(format!(
             "header says {n} samples but the file holds {} values",
-            body.len()
+            bytes.len() / 8 - 3
         ));
     }
-    let mut trial = Trial {
-        name: name.to_string(),
-        rate_hz: rate,
-        samples: Vec::with_capacity(n),
-        truth: Vec::with_capacity(n),
-        movement: Vec::with_capacity(n),
+    let v: Vec<f64> = bytes[24..end]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("chunks of 8")))
+        .collect();
+    let meta: TruthMeta = if end < bytes.len() {
+        let text = std::str::from_utf8(&bytes[end..])
+            .map_err(|e| format!("the trailer after the samples is not UTF-8: {e}"))?;
+        serde_json::from_str(text).map_err(|e| format!("the trailer after the samples: {e}"))?
+    } else {
+        TruthMeta::default()
     };
-    for (k, r) in body.chunks_exact(COLUMNS).enumerate() {
+    let mut trial = Trial::empty(name, rate, meta.model()?);
+    for (k, r) in v.chunks_exact(COLUMNS).enumerate() {
+        trial.push_row(k, r)?;
+    }
+    Ok(trial)
+}
+
+impl Trial {
+    fn empty(name: &str, rate_hz: f64, truth_model: TruthModel) -> Self {
+        Trial {
+            name: name.to_string(),
+            rate_hz,
+            samples: Vec::new(),
+            truth: Vec::new(),
+            movement: Vec::new(),
+            truth_model,
+        }
+    }
+
+    /// Appends sample `k`, a row of the fifteen columns.
+    fn push_row(&mut self, k: usize, r: &[f64]) -> Result<(), String> {
         if !r[..10].iter().all(|x| x.is_finite()) {
             return Err(format!("sample {k}: non-finite IMU values"));
         }
         let mag = Vector3::new(r[7], r[8], r[9]);
-        trial.samples.push(ImuSample {
+        self.samples.push(ImuSample {
             t_s: r[0],
             gyr_rad_s: Vector3::new(r[1], r[2], r[3]),
             acc_m_s2: Vector3::new(r[4], r[5], r[6]),
@@ -97,10 +171,85 @@ pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
         });
         // Hamilton [w, x, y, z] of body → reference: this project's components (x, y, z, w).
         let q = Quaternion::new(r[11], r[12], r[13], r[10]);
-        trial
-            .truth
+        self.truth
             .push(q.is_finite().then(|| q.normalized()).flatten());
-        trial.movement.push(r[14] != 0.0);
+        self.movement.push(r[14] != 0.0);
+        Ok(())
+    }
+
+    /// The gyro rate of every sample (body frame, rad/s).
+    pub fn rates(&self) -> Vec<Vector3<f64>> {
+        self.samples.iter().map(|s| s.gyr_rad_s).collect()
+    }
+}
+
+/// The names of a CSV trial's fifteen columns, in order.
+pub const CSV_COLUMNS: [&str; COLUMNS] = [
+    "t", "gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz", "qw", "qx", "qy", "qz", "movement",
+];
+
+/// Parses a CSV trial (see the module documentation): `# key: value` lines, the header, the rows. The
+/// rate is the median sample rate.
+pub fn parse_csv_trial(name: &str, text: &str) -> Result<Trial, String> {
+    let mut meta = serde_json::Map::new();
+    let mut header: Option<Vec<usize>> = None;
+    let mut rows: Vec<[f64; COLUMNS]> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        if let Some(c) = line.strip_prefix('#') {
+            let Some((k, v)) = c.split_once(':') else {
+                continue;
+            };
+            let v = v.trim();
+            let value = v
+                .parse::<f64>()
+                .map(serde_json::Value::from)
+                .unwrap_or_else(|_| serde_json::Value::from(v));
+            meta.insert(k.trim().to_string(), value);
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let Some(order) = &header else {
+            let mut order = Vec::with_capacity(COLUMNS);
+            for c in CSV_COLUMNS {
+                let at = fields
+                    .iter()
+                    .position(|f| *f == c)
+                    .ok_or_else(|| format!("line {}: the header has no column {c:?}", i + 1))?;
+                order.push(at);
+            }
+            header = Some(order);
+            continue;
+        };
+        let mut r = [f64::NAN; COLUMNS];
+        for (j, &at) in order.iter().enumerate() {
+            let f = fields
+                .get(at)
+                .ok_or_else(|| format!("line {}: {} fields", i + 1, fields.len()))?;
+            if !f.is_empty() {
+                r[j] = f
+                    .parse()
+                    .map_err(|e| format!("line {}: {:?}: {e}", i + 1, f))?;
+            }
+        }
+        rows.push(r);
+    }
+    if rows.is_empty() {
+        return Err("no samples".into());
+    }
+    let meta: TruthMeta = serde_json::from_value(serde_json::Value::Object(meta))
+        .map_err(|e| format!("the # lines: {e}"))?;
+    let mut dt: Vec<f64> = rows.windows(2).map(|w| w[1][0] - w[0][0]).collect();
+    let rate = match crate::study::broad::median(&mut dt) {
+        d if d > 0.0 => 1.0 / d,
+        _ => 1.0,
+    };
+    let mut trial = Trial::empty(name, rate, meta.model()?);
+    for (k, r) in rows.iter().enumerate() {
+        trial.push_row(k, r)?;
     }
     Ok(trial)
 }
@@ -115,7 +264,14 @@ pub fn read_trial(path: &Path) -> Result<Trial, StudyError> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    parse_trial(&name, &bytes).map_err(|message| StudyError::Format {
+    let parsed = if path.extension().is_some_and(|x| x == "csv") {
+        std::str::from_utf8(&bytes)
+            .map_err(|e| format!("not UTF-8: {e}"))
+            .and_then(|text| parse_csv_trial(&name, text))
+    } else {
+        parse_trial(&name, &bytes)
+    };
+    parsed.map_err(|message| StudyError::Format {
         path: path.display().to_string(),
         message,
     })
@@ -145,6 +301,20 @@ pub fn trial_to_bytes(t: &Trial) -> Vec<u8> {
         } else {
             0.0
         });
+    }
+    if t.truth_model != TruthModel::default() {
+        let m = &t.truth_model;
+        let meta = TruthMeta {
+            align: Some(m.align),
+            truth_tilt_sigma_deg: Some(m.tilt_sigma_rad.to_degrees()),
+            truth_time_sigma_s: Some(m.time_sigma_s),
+            source: None,
+        };
+        out.extend_from_slice(
+            serde_json::to_string(&meta)
+                .expect("plain values serialise")
+                .as_bytes(),
+        );
     }
     out
 }
@@ -373,7 +543,13 @@ pub fn study(trials: &[Trial], setup: &Setup, series_dir: Option<&Path>) -> Vec<
                         eprintln!("{}: {e}", path.display());
                     }
                 }
-                let scores = score(&run.estimates, &trial.truth, &trial.movement);
+                let scores = score_with(
+                    &run.estimates,
+                    &trial.truth,
+                    &trial.movement,
+                    Some(&trial.rates()),
+                    &trial.truth_model,
+                );
                 let r = TrialResult {
                     trial: trial.name.clone(),
                     filter: setup.filter.filter.spec.to_string(),
@@ -407,7 +583,7 @@ pub fn trial_paths(paths: &[PathBuf]) -> Result<Vec<PathBuf>, StudyError> {
                     message: e.to_string(),
                 })?
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|x| x == "trial"))
+                .filter(|p| p.extension().is_some_and(|x| x == "trial" || x == "csv"))
                 .collect();
             found.sort();
             out.extend(found);
@@ -452,12 +628,12 @@ pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, serde_json::Value)>, S
 /// A markdown table of results.
 pub fn table(results: &[TrialResult]) -> String {
     let mut s = String::from(
-        "| trial | filter | total ° | heading ° | incl. ° | tilt in 99% | tilt NEES med. | heading in 99% | heading offset ° | samples/s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| trial | filter | total ° | heading ° | incl. ° | tilt in 99% | tilt NEES med. | heading in 99% | 3-axis in 99% | heading offset ° | samples/s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in results {
         let c = &r.scores;
         s += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.2} | {:.3} | {:+.2} | {:.0} |\n",
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.2} | {:.3} | {:.3} | {:+.2} | {:.0} |\n",
             r.trial,
             r.filter,
             c.total_rmse_deg,
@@ -466,6 +642,7 @@ pub fn table(results: &[TrialResult]) -> String {
             c.tilt_in99,
             c.tilt_nees_median,
             c.heading_in99,
+            c.att_in99,
             c.heading_offset_deg,
             r.samples_per_s
         );

@@ -73,6 +73,7 @@ ATTRIBUTION = (
 MADGWICK_BETA = 0.12
 #: χ²₂ 99% quantile, the two-sided 99% of a normal, and the truth's own tilt error (rad): src/study/broad.rs.
 CHI2_2_99 = 9.210340371976182
+CHI2_3_99 = 11.344866730144373
 Z_99 = 2.575829303548901
 TRUTH_TILT_SIGMA_RAD = np.deg2rad(0.2)
 #: The keys of an estimator's scores: every estimator's, then those of a filter with a covariance.
@@ -116,18 +117,92 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
+def quat_average(q: np.ndarray) -> np.ndarray:
+    """The MMSE average of unit quaternions (n, 4): the eigenvector of the largest eigenvalue of ``Σ q qᵀ``, ``w ≥ 0``
+    unless the average is a half turn."""
+    m = q.T @ q
+    vals, vecs = np.linalg.eigh(m)
+    a = vecs[:, np.argmax(vals)]
+    return a if a[0] >= 0 else -a
+
+
+def _rotation_vectors(q: np.ndarray) -> np.ndarray:
+    q = np.where((q[:, 0] < 0)[:, None], -q, q)
+    s = np.linalg.norm(q[:, 1:], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where((s > 0)[:, None], q[:, 1:] * (2.0 * np.arctan2(s, q[:, 0]) / s)[:, None], 0.0)
+
+
+def _body_start(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+    """``R`` from the relative rotations alone (hand–eye): ``q_est,i⁻¹·q_est,j = R·(q_true,i⁻¹·q_true,j)·R⁻¹``, so the
+    rotation vectors of the two are turned into each other by ``R``; with the pairs ``(i, i + 16)`` the rotation
+    that best turns the truth's into the estimate's (Wahba by SVD, weighted by angle). Identity without rotation."""
+    step = 16
+    if len(q_est) <= step:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    ve = _rotation_vectors(quatmult(invquat(q_est[:-step]), q_est[step:]))
+    vt = _rotation_vectors(quatmult(invquat(q_true[:-step]), q_true[step:]))
+    b = ve.T @ vt
+    u, _, vh = np.linalg.svd(b)
+    d = np.sign(np.linalg.det(u @ vh)) or 1.0
+    m = u @ np.diag([1.0, 1.0, d]) @ vh
+    if not np.isfinite(m).all() or np.allclose(b, 0.0):
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(m).as_quat()
+    return np.array([w, x, y, z])
+
+
+def alignment(q_est: np.ndarray, q_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The constant rotations ``L`` (reference) and ``R`` (body) with ``q_true ≈ L·q_est·R`` (Hamilton) over the
+    rows given (unit, finite): ``R`` starts from the relative rotations alone (:func:`_body_start`), then
+    alternately the average of ``q_true·R⁻¹·q_est⁻¹`` with ``R`` held and of ``q_est⁻¹·L⁻¹·q_true`` with ``L``
+    held, until neither moves by more than 1e-9 rad (at most 50 rounds): ``alignment`` of src/study/broad.rs."""
+    r = _body_start(q_est, q_true)
+    l = quat_average(quatmult(quatmult(q_true, invquat(r)), invquat(q_est)))
+    for _ in range(50):
+        l_new = quat_average(quatmult(quatmult(q_true, invquat(r)), invquat(q_est)))
+        if np.dot(l_new, l) < 0:
+            l_new = -l_new
+        r_new = quat_average(quatmult(quatmult(invquat(q_est), invquat(l_new)), q_true))
+        if np.dot(r_new, r) < 0:
+            r_new = -r_new
+
+        def angle(a, b):
+            d = quatmult(a, invquat(b))[0]
+            return 2.0 * np.arctan2(np.linalg.norm(d[1:]), abs(d[0]))
+
+        moved = max(angle(l_new, l), angle(r_new, r))
+        l, r = l_new, r_new
+        if moved < 1e-9:
+            break
+    return l, r
+
+
 def broad_scores(
-    q_est: np.ndarray, cov_att: np.ndarray | None, q_true: np.ndarray, movement: np.ndarray
+    q_est: np.ndarray,
+    cov_att: np.ndarray | None,
+    q_true: np.ndarray,
+    movement: np.ndarray,
+    truth: dict | None = None,
+    gyr: np.ndarray | None = None,
 ) -> dict:
     """The scores of ``src/study/broad.rs`` over the ``movement`` samples with an estimate and a truth.
 
     ``q_est``, ``q_true``: (n, 4) Hamilton ``[w, x, y, z]`` of body → reference (East-North-Up, magnetic north),
     NaN rows where there is none. ``cov_att``: (n, 3, 3) covariance of the body-frame attitude error, rad², or
-    None (an estimator without one: accuracy only). ``movement``: (n,) bool.
+    None (an estimator without one: accuracy only). ``movement``: (n,) bool. ``truth``: the truth's description
+    (:func:`truth_model`; default BROAD's: no alignment, 0.2° of tilt); ``gyr`` (n, 3) the body rates that turn the
+    truth's time-stamp uncertainty into an angle.
+
+    With ``truth["align"] == "both"`` the estimate is aligned on its own (:func:`alignment`) and scored against
+    ``L⁻¹·q_true·R⁻¹``; ``align_reference_deg`` and ``align_body_deg`` report the two rotations' angles.
 
     Returns ``total_rmse_deg``, ``heading_rmse_deg``, ``inclination_rmse_deg`` and ``scored`` (the samples
-    scored); with ``cov_att`` also ``tilt_in99``, ``tilt_nees_median``, ``heading_in99``, ``heading_offset_deg``.
-    NaN for a figure without any sample."""
+    scored); with ``cov_att`` also ``tilt_in99``, ``tilt_nees_median``, ``heading_in99``, ``att_in99``,
+    ``att_nees_median``, ``heading_offset_deg``. NaN for a figure without any sample."""
+    truth = truth_model(truth)
     q_est = np.asarray(q_est, dtype=float)
     q_true = np.asarray(q_true, dtype=float)
     movement = np.asarray(movement, dtype=bool)
@@ -141,6 +216,12 @@ def broad_scores(
     rows = movement & np.isfinite(q_est).all(axis=1) & np.isfinite(q_true).all(axis=1)
     qe = q_est[rows] / np.linalg.norm(q_est[rows], axis=1)[:, None]
     qt = q_true[rows] / np.linalg.norm(q_true[rows], axis=1)[:, None]
+    extra = {}
+    if truth["align"] == "both" and len(qe):
+        l, r = alignment(qe, qt)
+        qt = quatmult(quatmult(invquat(l), qt), invquat(r))
+        for key, a in (("align_reference_deg", l), ("align_body_deg", r)):
+            extra[key] = float(np.rad2deg(2.0 * np.arctan2(np.linalg.norm(a[1:]), abs(a[0]))))
     e = quatmult(qe, invquat(qt))
     e[e[:, 0] < 0] *= -1.0
     w, z = np.minimum(e[:, 0], 1.0), e[:, 3]
@@ -155,13 +236,29 @@ def broad_scores(
 
     out = {"total_rmse_deg": rmse(total), "heading_rmse_deg": rmse(heading), "inclination_rmse_deg": rmse(incl)}
     if cov_att is not None:
-        out.update(_honesty(qe, e, w, cov_att[rows], m))
+        rates = None if gyr is None else np.asarray(gyr, dtype=float)[rows]
+        out.update(_honesty(qe, e, w, cov_att[rows], m, truth, rates))
+    out.update(extra)
     out["scored"] = m
     return out
 
 
-def _honesty(qe: np.ndarray, e: np.ndarray, w: np.ndarray, p_att: np.ndarray, m: int) -> dict:
-    """Tilt NEES and heading coverage (src/study/broad.rs), on the scored rows."""
+def truth_model(truth: dict | None) -> dict:
+    """The truth's description with its defaults (BROAD's): ``align`` ("none" or "both"), ``truth_tilt_sigma_deg``
+    (0.2), ``truth_time_sigma_s`` (0)."""
+    out = {"align": "none", "truth_tilt_sigma_deg": float(np.rad2deg(TRUTH_TILT_SIGMA_RAD)), "truth_time_sigma_s": 0.0}
+    for k, v in (truth or {}).items():
+        if k in out and v is not None:
+            out[k] = v if k == "align" else float(v)
+    if out["align"] not in ("none", "both"):
+        raise ValueError(f"align {out['align']!r}: expected 'none' or 'both'")
+    return out
+
+
+def _honesty(
+    qe: np.ndarray, e: np.ndarray, w: np.ndarray, p_att: np.ndarray, m: int, truth: dict, rates: np.ndarray | None
+) -> dict:
+    """Tilt NEES, heading and 3-axis coverage (src/study/broad.rs), on the scored rows."""
     if m == 0:
         return {k: float("nan") for k in HONESTY_KEYS}
     v = e[:, 1:]
@@ -170,10 +267,15 @@ def _honesty(qe: np.ndarray, e: np.ndarray, w: np.ndarray, p_att: np.ndarray, m:
         theta = np.where((s > 0)[:, None], v * (2.0 * np.arctan2(s, w) / s)[:, None], 0.0)
     r = rotation_matrix(qe)
     pe = r @ p_att @ np.transpose(r, (0, 2, 1))
-    truth2 = TRUTH_TILT_SIGMA_RAD**2
+    truth2 = np.deg2rad(truth["truth_tilt_sigma_deg"]) ** 2
+    pe[:, 0, 0] += truth2
+    pe[:, 1, 1] += truth2
+    if rates is not None and truth["truth_time_sigma_s"] > 0:
+        wr = np.einsum("nij,nj->ni", r, rates)
+        pe += np.einsum("ni,nj->nij", wr, wr) * truth["truth_time_sigma_s"] ** 2
     # θ_hᵀ P_h⁻¹ θ_h by a Cholesky factor of the 2×2 block (lower triangle, as nalgebra's); not positive
     # definite: infinite.
-    a, c, d = pe[:, 0, 0] + truth2, pe[:, 1, 0], pe[:, 1, 1] + truth2
+    a, c, d = pe[:, 0, 0], pe[:, 1, 0], pe[:, 1, 1]
     with np.errstate(invalid="ignore", divide="ignore"):
         l00 = np.sqrt(a)
         l10 = c / l00
@@ -184,10 +286,19 @@ def _honesty(qe: np.ndarray, e: np.ndarray, w: np.ndarray, p_att: np.ndarray, m:
     psi = theta[:, 2]
     psi_sigma = np.sqrt(np.maximum(pe[:, 2, 2], 0.0))
     offset = float(np.mean(psi))
+    th3 = theta.copy()
+    th3[:, 2] -= offset
+    att = np.full(m, np.inf)
+    ok = np.all(np.linalg.eigvalsh(pe) > 0, axis=1)
+    if ok.any():
+        sol = np.linalg.solve(pe[ok], th3[ok][:, :, None])[:, :, 0]
+        att[ok] = np.einsum("ni,ni->n", th3[ok], sol)
     return {
         "tilt_in99": float(np.count_nonzero(nees <= CHI2_2_99) / m),
         "tilt_nees_median": float(np.median(nees)),
         "heading_in99": float(np.count_nonzero(np.abs(psi - offset) <= Z_99 * psi_sigma) / m),
+        "att_in99": float(np.count_nonzero(att <= CHI2_3_99) / m),
+        "att_nees_median": float(np.median(att)),
         "heading_offset_deg": float(np.rad2deg(offset)),
     }
 
@@ -203,13 +314,75 @@ def broad_rmse(q_est: np.ndarray, q_opt: np.ndarray, movement: np.ndarray) -> di
 # Data
 
 
+CSV_COLUMNS = ("t", "gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz", "qw", "qx", "qy", "qz", "movement")
+
+
 def load_trial(path: Path, excerpt_seconds: float | None) -> dict:
-    """The trial, its IMU channels as float64; ``t`` from the attribute ``first_sample`` (0 when absent)."""
+    """The trial, its IMU channels as float64: a BROAD-layout HDF5 file (``t`` from the attribute ``first_sample``,
+    0 when absent) or a CSV trial (docs/recordings.md: ``# key: value`` lines, a header naming the columns
+    ``t, gx, gy, gz, ax, ay, az, mx, my, mz, qw, qx, qy, qz, movement``, one line per sample). ``truth`` describes
+    the truth (:func:`truth_model`: the attributes or ``#`` lines ``align``, ``truth_tilt_sigma_deg``,
+    ``truth_time_sigma_s``)."""
+    if Path(path).suffix == ".csv":
+        trial = _load_csv_trial(Path(path))
+    else:
+        trial = _load_hdf5_trial(Path(path))
+    return _check_and_cut(path, trial, excerpt_seconds)
+
+
+def _load_csv_trial(path: Path) -> dict:
+    meta: dict = {}
+    header = None
+    rows = []
+    with open(path) as fh:
+        for line in fh:
+            line = line.strip()
+            if not line:
+                continue
+            if line.startswith("#"):
+                key, sep, value = line[1:].partition(":")
+                if sep:
+                    meta[key.strip()] = value.strip()
+                continue
+            fields = [f.strip() for f in line.split(",")]
+            if header is None:
+                missing = [c for c in CSV_COLUMNS if c not in fields]
+                if missing:
+                    raise SystemExit(f"{path}: the header has no column {missing[0]!r}")
+                header = [fields.index(c) for c in CSV_COLUMNS]
+                continue
+            rows.append([float(fields[i]) if fields[i] else np.nan for i in header])
+    if not rows:
+        raise SystemExit(f"{path}: no samples")
+    a = np.asarray(rows, dtype=np.float64)
+    t = a[:, 0]
+    dt = np.diff(t)
+    rate = 1.0 / float(np.median(dt)) if len(dt) and np.median(dt) > 0 else 1.0
+    quat = a[:, 10:14]
+    return {
+        "name": path.stem,
+        "gyr": np.ascontiguousarray(a[:, 1:4]),
+        "acc": np.ascontiguousarray(a[:, 4:7]),
+        "mag": np.ascontiguousarray(a[:, 7:10]),
+        "opt_quat": quat if np.isfinite(quat).any() else None,
+        "movement": a[:, 14] != 0,
+        "rate_hz": rate,
+        "first_sample": 0,
+        "t": t,
+        "truth": truth_model({k: meta.get(k) for k in ("align", "truth_tilt_sigma_deg", "truth_time_sigma_s")}),
+    }
+
+
+def _load_hdf5_trial(path: Path) -> dict:
     try:
         import h5py
     except ImportError as e:
         raise SystemExit("reading a trial needs h5py: pip install 'attitude-client[replay]'") from e
     with h5py.File(path, "r") as f:
+        def attr(key):
+            v = f.attrs.get(key)
+            return v.decode() if isinstance(v, bytes) else v
+
         trial = {
             "name": path.stem,
             "gyr": np.ascontiguousarray(f["imu_gyr"][:], dtype=np.float64),
@@ -219,7 +392,16 @@ def load_trial(path: Path, excerpt_seconds: float | None) -> dict:
             "movement": np.asarray(f["movement"][:], dtype=bool) if "movement" in f else None,
             "rate_hz": float(f.attrs["sampling_rate"]),
             "first_sample": int(f.attrs.get("first_sample", 0)),
+            "truth": truth_model(
+                {k: attr(k) for k in ("align", "truth_tilt_sigma_deg", "truth_time_sigma_s")}
+            ),
         }
+    k = trial["first_sample"] + np.arange(len(trial["gyr"]), dtype=np.float64)
+    trial["t"] = k / trial["rate_hz"]
+    return trial
+
+
+def _check_and_cut(path: Path, trial: dict, excerpt_seconds: float | None) -> dict:
     n = len(trial["gyr"])
     for key in ("gyr", "acc", "mag"):
         if trial[key].shape != (n, 3) or not np.isfinite(trial[key]).all():
@@ -233,8 +415,7 @@ def load_trial(path: Path, excerpt_seconds: float | None) -> dict:
         for key in ("gyr", "acc", "mag", "opt_quat", "movement"):
             if trial[key] is not None:
                 trial[key] = trial[key][:end]
-    k = trial["first_sample"] + np.arange(len(trial["gyr"]), dtype=np.float64)
-    trial["t"] = k / trial["rate_hz"]
+        trial["t"] = trial["t"][:end]
     return trial
 
 
