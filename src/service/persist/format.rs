@@ -536,6 +536,7 @@ saved!(FieldV5 for FieldChannel {
     since_solve_s: f64,
     new_fields: u64,
     hard_iron_changes: u64,
+    confirmed: bool,
 });
 saved!(AhrsCountsV5 for AhrsCounts {
     samples: u64,

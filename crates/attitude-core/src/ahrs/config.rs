@@ -99,6 +99,11 @@ pub struct MagConfig {
     /// What remains of it (the delay's uncertainty, the magnetometer's own dynamics), s: the heading
     /// 1σ grows by `σ_δ ‖ω‖` in quadrature.
     pub delay_sigma_s: f64,
+    /// A reading whose low-passed norm deviates from the reference's by a relative `δn` and whose dip
+    /// by `δd` (rad) is disturbed by a field of about that size: its heading 1σ grows by
+    /// `deviation_gain · √(δn² + δd²) / cos(dip)` in quadrature (1: a disturbance of no preferred
+    /// direction turns the horizontal field by about as much as it changes the norm and the dip).
+    pub deviation_gain: f64,
     pub hard_iron: HardIronConfig,
 }
 
@@ -119,6 +124,15 @@ pub struct HardIronConfig {
     pub min_change: f64,
     /// The accepted offset's RMS residual over the window must exceed the new fit's by this factor.
     pub min_improvement: f64,
+    /// Least rotation the window must have seen about every axis: the smallest eigenvalue of
+    /// `I − J̄ J̄ᵀ` (`J̄` the mean attitude matrix of the window; 0 without rotation about some axis, 1
+    /// for attitudes spread over the sphere). An offset along an axis the body hardly turned about is
+    /// indistinguishable from the field's own component along it (a pendulum that swings in a plane).
+    pub min_excitation: f64,
+    /// A fit whose field differs from a reference not yet confirmed by rotation replaces it only
+    /// when it explains the window this many times better than the offset in use (a disturbance of
+    /// a place along a path that repeats its attitudes also fits an offset, but hardly this well).
+    pub replace_improvement: f64,
     /// When the field turns disturbed, the fit keeps this weight of what it saw before (it relearns
     /// from the readings after the change).
     pub restart_weight: f64,
@@ -211,6 +225,7 @@ impl Default for MagConfig {
             floor_rad: 0.0052,
             delay_s: 0.0,
             delay_sigma_s: 0.0,
+            deviation_gain: 1.0,
             hard_iron: HardIronConfig::default(),
         }
     }
@@ -228,6 +243,8 @@ impl Default for HardIronConfig {
             recent_s: 2.0,
             min_change: 0.05,
             min_improvement: 1.5,
+            min_excitation: 0.1,
+            replace_improvement: 4.0,
             restart_weight: 0.05,
         }
     }
@@ -323,6 +340,18 @@ impl AhrsConfig {
         positive(h.max_offset_sigma, "mag.hard_iron.max_offset_sigma")?;
         positive(h.max_residual, "mag.hard_iron.max_residual")?;
         positive(h.recent_s, "mag.hard_iron.recent_s")?;
+        if !(h.replace_improvement >= 1.0 && h.replace_improvement.is_finite()) {
+            return Err(format!(
+                "mag.hard_iron.replace_improvement must be at least 1, got {}",
+                h.replace_improvement
+            ));
+        }
+        if !(0.0..=1.0).contains(&h.min_excitation) {
+            return Err(format!(
+                "mag.hard_iron.min_excitation must be in [0, 1], got {}",
+                h.min_excitation
+            ));
+        }
         nonneg(h.min_change, "mag.hard_iron.min_change")?;
         if !(h.restart_weight >= 0.0 && h.restart_weight <= 1.0) {
             return Err(format!(

@@ -186,6 +186,20 @@ impl HardIronFit {
         self.n *= weight;
     }
 
+    /// How much rotation about its least-turned axis the window holds: the smallest eigenvalue of
+    /// `I − J̄ J̄ᵀ`, `J̄ = J / n` the window's mean attitude matrix (0 when the body never turned about
+    /// some axis, 1 for attitudes spread over the sphere).
+    pub fn excitation(&self) -> f64 {
+        if !(self.n > 0.0) {
+            return 0.0;
+        }
+        let jn = self.j / self.n;
+        (Matrix3::identity() - jn * jn.transpose())
+            .symmetric_eigenvalues()
+            .min()
+            .max(0.0)
+    }
+
     /// RMS residual of the recent readings against the last solution.
     fn recent_rms(&self) -> f64 {
         self.recent_ms.max(0.0).sqrt()
@@ -199,6 +213,17 @@ fn direction(north: &Vector3<f64>, dip: f64) -> Vector3<f64> {
         .try_normalize(1e-12)
         .unwrap_or(Vector3::y());
     h * dip.cos() - UP * dip.sin()
+}
+
+/// The angle (rad, in [0, π]) between the horizontal parts (perpendicular to `up`) of two readings.
+fn heading_change(a: &Vector3<f64>, b: &Vector3<f64>, up: &Vector3<f64>) -> f64 {
+    let ha = a - up * a.dot(up);
+    let hb = b - up * b.dot(up);
+    let (na, nb) = (ha.norm(), hb.norm());
+    if !(na > 0.0 && nb > 0.0) {
+        return std::f64::consts::PI;
+    }
+    (ha.cross(&hb).dot(up)).atan2(ha.dot(&hb)).abs()
 }
 
 /// True when every value is finite: `0·x` is 0 for a finite `x` and NaN otherwise, summed in four
@@ -254,6 +279,11 @@ pub struct FieldChannel {
     /// Counts: accepted new fields and hard-iron offsets.
     pub new_fields: u64,
     pub hard_iron_changes: u64,
+    /// Whether the reference has been confirmed by rotation: a hard-iron fit over enough rotation
+    /// found the field it describes, with the offset in use. Until then the reference is the reading
+    /// of one place and attitude, which a magnet on the body or a disturbance at the start may have
+    /// made; a well-determined fit may then replace it ([`FieldChannel::judge_fit`]).
+    pub confirmed: bool,
 }
 
 impl FieldChannel {
@@ -281,6 +311,7 @@ impl FieldChannel {
             since_solve_s: 0.0,
             new_fields: 0,
             hard_iron_changes: 0,
+            confirmed: false,
         };
         f.set_reference(norm, dip_rad, north);
         f
@@ -335,12 +366,14 @@ impl FieldChannel {
         a_gyro: &Matrix3<f64>,
         rate_rad_s: f64,
         dt_s: f64,
-    ) {
+    ) -> Option<f64> {
         let g = FieldGains::new(c, dt_s);
-        self.update_by(c, mag, up_body, up_gyro, a_gyro, rate_rad_s, dt_s, &g);
+        self.update_by(c, mag, up_body, up_gyro, a_gyro, rate_rad_s, dt_s, &g)
     }
 
-    /// [`FieldChannel::update`] with the gains of the interval given ([`super::gains`]).
+    /// [`FieldChannel::update`] with the gains of the interval given ([`super::gains`]). Returns the
+    /// heading change (rad) that a newly accepted offset makes to this reading, when one was accepted:
+    /// the estimate's heading may be wrong by that much.
     #[allow(clippy::too_many_arguments)]
     pub fn update_by(
         &mut self,
@@ -352,7 +385,7 @@ impl FieldChannel {
         rate_rad_s: f64,
         dt_s: f64,
         g: &FieldGains,
-    ) {
+    ) -> Option<f64> {
         let dt = dt_s.max(0.0);
         self.since_update_s += dt;
         self.since_solve_s += dt;
@@ -362,7 +395,7 @@ impl FieldChannel {
         let m = mag - self.offset;
         let n = m.norm();
         if !(n > 0.0 && n.is_finite()) {
-            return;
+            return None;
         }
         let dip = dip_rad(&(m / n), up_body);
         // (Norm and dip filtered alike: one gain each for the low-pass and the reference.)
@@ -409,10 +442,13 @@ impl FieldChannel {
             self.candidate_norm = ln;
             self.candidate_dip = ld;
         }
+        let mut jump = None;
         if c.hard_iron.enabled && self.since_solve_s >= c.hard_iron.solve_interval_s {
             let interval = self.since_solve_s;
             self.since_solve_s = 0.0;
-            self.judge_fit(c, up_gyro, interval);
+            if let Some(old) = self.judge_fit(c, up_gyro, interval) {
+                jump = Some(heading_change(&(mag - old), &(mag - self.offset), up_body));
+            }
         }
         // The rejection budget.
         if self.disturbed {
@@ -420,29 +456,54 @@ impl FieldChannel {
         } else {
             self.rejected_s = (self.rejected_s - c.rejection_factor * dt).max(0.0);
         }
+        jump
     }
 
     /// Accepts the hard-iron fit once it has explained the readings for `confirm_s` with an offset
-    /// that differs from the accepted one. (Whether the field looks disturbed does not matter: a small
-    /// offset passes the norm and dip checks at many attitudes and still turns the heading.)
-    fn judge_fit(&mut self, c: &MagConfig, up_gyro: &Vector3<f64>, interval_s: f64) {
+    /// that differs from the accepted one; returns the offset it replaced when it accepts one.
+    /// (Whether the field looks disturbed does not matter: a small offset passes the norm and dip
+    /// checks at many attitudes and still turns the heading.)
+    ///
+    /// A fit explains the readings when the window turned enough about every axis (`min_excitation`),
+    /// the offset is well determined and the residuals are small, and its field has the reference's
+    /// norm and dip. A reference not yet confirmed by rotation (the reading of one place and attitude)
+    /// does not bind the fit: a fit that explains the readings over enough rotation with another field
+    /// replaces it (a magnet on the body, or a disturbed place, at the start), and one that finds the
+    /// reference and the offset in use confirms it.
+    fn judge_fit(
+        &mut self,
+        c: &MagConfig,
+        up_gyro: &Vector3<f64>,
+        interval_s: f64,
+    ) -> Option<Vector3<f64>> {
         let h = &c.hard_iron;
         let Some(s) = self.fit.solve() else {
             self.fit_ok_s = 0.0;
-            return;
+            return None;
         };
-        let scale = self.norm.max(1e-12);
         let field_norm = s.field_gyro.norm();
         let field_dip = if field_norm > 0.0 {
             dip_rad(&(s.field_gyro / field_norm), up_gyro)
         } else {
             f64::NAN
         };
-        let explains = s.offset_sigma <= h.max_offset_sigma * scale
+        // (An unconfirmed reference's norm may hold an offset: the fit's own field sets the scale.)
+        let scale = if self.confirmed {
+            self.norm
+        } else {
+            field_norm
+        }
+        .max(1e-12);
+        let determined = self.fit.excitation() >= h.min_excitation
+            && s.offset_sigma <= h.max_offset_sigma * scale
             && s.residual_rms <= h.max_residual * scale
-            && self.fit.recent_rms() <= h.max_residual * scale
-            && self.within(c, field_norm, field_dip, self.norm, self.dip);
+            && self.fit.recent_rms() <= h.max_residual * scale;
+        let within_reference = self.within(c, field_norm, field_dip, self.norm, self.dip);
+        let explains = determined && (within_reference || !self.confirmed);
         let change = (s.offset - self.offset).norm();
+        if determined && within_reference && change < h.min_change * scale {
+            self.confirmed = true;
+        }
         if explains && self.hard_iron_changes > 0 && change < h.min_change * scale {
             // A magnet that was accepted keeps being calibrated as more rotation is seen: the fit
             // close to the accepted offset refines it over `confirm_s`.
@@ -450,29 +511,46 @@ impl FieldChannel {
             self.offset += (s.offset - self.offset) * k;
             self.offset_sigma += (s.offset_sigma - self.offset_sigma) * k;
         }
+        let improvement = if within_reference {
+            h.min_improvement
+        } else {
+            h.replace_improvement
+        };
         let good = explains
             && change >= (h.min_change * scale).max(3.0 * s.offset_sigma)
             // The new offset must explain the window clearly better than the accepted one (field
             // inhomogeneity along a path also fits a small offset, but hardly better than none).
-            && self.fit.residual_with_offset(&self.offset) >= h.min_improvement * s.residual_rms;
+            && self.fit.residual_with_offset(&self.offset) >= improvement * s.residual_rms;
         if !good {
             // (A moment's doubt, e.g. one fast turn, does not undo the evidence gathered: it takes
             // twice as long off as on.)
             self.fit_ok_s = (self.fit_ok_s - 2.0 * interval_s).max(0.0);
-            return;
+            return None;
         }
         self.fit_ok_s += interval_s;
-        if self.fit_ok_s >= h.confirm_s {
-            self.offset = s.offset;
-            self.offset_sigma = s.offset_sigma;
-            self.fit_ok_s = 0.0;
-            self.hard_iron_changes += 1;
-            // The corrected readings are judged afresh.
-            self.lp_ready = false;
-            self.disturbed = false;
-            self.undisturbed_s = c.min_undisturbed_s;
-            self.candidate_s = 0.0;
+        if self.fit_ok_s < h.confirm_s {
+            return None;
         }
+        let old = self.offset;
+        self.offset = s.offset;
+        self.offset_sigma = s.offset_sigma;
+        self.fit_ok_s = 0.0;
+        self.hard_iron_changes += 1;
+        if !within_reference {
+            // The reference was the reading of one place: the fit's field replaces its norm and dip
+            // (north stays the reference frame's).
+            let north = self.direction - UP * self.direction.dot(&UP);
+            self.set_reference(field_norm, field_dip, &north);
+            self.candidate_norm = field_norm;
+            self.candidate_dip = field_dip;
+        }
+        self.confirmed = true;
+        // The corrected readings are judged afresh.
+        self.lp_ready = false;
+        self.disturbed = false;
+        self.undisturbed_s = c.min_undisturbed_s;
+        self.candidate_s = 0.0;
+        Some(old)
     }
 
     /// The heading observation when one is due (every `interval_s`), from the reading `mag` taken at
@@ -501,9 +579,22 @@ impl FieldChannel {
         // The heading 1σ: the field's own, and what the offset's uncertainty turns into.
         let offset_heading = self.offset_sigma / (self.norm * horizontal).max(1e-12);
         let timing = c.delay_sigma_s * rate_rad_s;
-        let sigma_psi =
-            (c.sigma_rad * c.sigma_rad + offset_heading * offset_heading + timing * timing).sqrt()
-                * weight;
+        // A field that deviates from the reference by a relative norm δn and a dip δd is disturbed by
+        // a field of about δn·B along it and δd·B across it; a disturbance of no preferred direction
+        // turns the horizontal part by as much again: about √(δn² + δd²)·B / B_h of heading.
+        let deviation = if self.lp_ready {
+            let dn = (self.lp_norm - self.norm) / self.norm.max(1e-12);
+            let dd = self.lp_dip - self.dip;
+            c.deviation_gain * (dn * dn + dd * dd).sqrt() / horizontal
+        } else {
+            0.0
+        };
+        let sigma_psi = (c.sigma_rad * c.sigma_rad
+            + offset_heading * offset_heading
+            + timing * timing
+            + deviation * deviation)
+            .sqrt()
+            * weight;
         let spread = sigma_psi * (c.correlation_s / c.interval_s.max(1e-9)).max(1.0).sqrt();
         HeadingObservation::Use(
             VectorObservation {
@@ -660,5 +751,72 @@ mod tests {
             ch.observation(&c, &(a * field(65.0) * 1.3), 0.0),
             HeadingObservation::Rejected
         );
+    }
+
+    /// A pendulum swings about one axis: an offset along that axis cannot be told from the field's
+    /// own component along it. Here the readings are those of an offset of 6 µT along the swing axis,
+    /// and just as well (to 0.2 µT: the slight wobble is all that tells them apart, and any field
+    /// inhomogeneity is larger) those of a field with a 6 µT component along that axis and no
+    /// offset. The channel must not decide: with the excitation requirement it accepts nothing; the
+    /// same channel without it accepts the offset (as it did, wrongly, on the RepoIMU pendulum,
+    /// whose heading then ran away).
+    #[test]
+    fn a_swing_about_one_axis_never_accepts_an_offset() {
+        let run = |min_excitation: f64| {
+            let mut c = MagConfig::default();
+            c.hard_iron.min_excitation = min_excitation;
+            let mut ch = FieldChannel::new(45.0, 65f64.to_radians(), &Vector3::y());
+            let dt = 0.02;
+            for k in 0..10_000 {
+                let t = k as f64 * dt;
+                let angle = 0.5 * (1.3 * t).sin();
+                let wobble = 0.03 * (0.37 * t).sin();
+                let q = Quaternion::from_rotation_vector(&(Vector3::x() * angle))
+                    .compose(&Quaternion::from_rotation_vector(&(Vector3::y() * wobble)));
+                let a = q.attitude_matrix();
+                let m = a * field(65.0) + Vector3::new(6.0, 0.0, 0.0);
+                ch.update(&c, &m, &(a * UP), &UP, &a, 0.0, dt);
+            }
+            (ch.hard_iron_changes, ch.fit.excitation())
+        };
+        let (changes, excitation) = run(MagConfig::default().hard_iron.min_excitation);
+        assert!(excitation < 0.01, "{excitation}");
+        assert_eq!(changes, 0);
+        assert!(run(0.0).0 > 0);
+    }
+
+    /// A magnet on the body from the start: the reference taken from the first reading holds its
+    /// offset. Once the body has turned enough, the fit replaces that reference with the field it
+    /// finds (its norm and dip), accepts the offset, confirms the reference, and reports how much the
+    /// correction turns the heading of the reading.
+    #[test]
+    fn a_magnet_from_the_start_replaces_the_provisional_reference() {
+        let c = MagConfig::default();
+        let offset = Vector3::new(10.0, -25.0, 30.0);
+        let first = field(65.0) + offset;
+        let up = Vector3::new(0.0, 0.0, 1.0);
+        let dip = dip_rad(&first.normalize(), &up);
+        let mut ch = FieldChannel::new(first.norm(), dip, &Vector3::y());
+        assert!(!ch.confirmed);
+        let dt = 0.01;
+        let mut q = Quaternion::IDENTITY;
+        let mut jump = None;
+        for k in 0..6000 {
+            let t = k as f64 * dt;
+            let w = Vector3::new((0.7 * t).sin(), (0.5 * t).cos(), 0.8 * (0.3 * t).sin());
+            q = q.propagate(&w, dt);
+            let a = q.attitude_matrix();
+            let m = a * field(65.0) + offset;
+            if let Some(j) = ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), dt) {
+                jump.get_or_insert(j);
+            }
+        }
+        assert_eq!(ch.hard_iron_changes, 1);
+        assert!(ch.confirmed);
+        assert!((ch.offset() - offset).norm() < 0.5, "{}", ch.offset());
+        assert!((ch.norm - 45.0).abs() < 0.5, "{}", ch.norm);
+        assert!((ch.dip - 65f64.to_radians()).abs() < 0.01, "{}", ch.dip);
+        let j = jump.expect("the acceptance reports the heading change");
+        assert!(j > 0.05, "{j}");
     }
 }

@@ -358,7 +358,7 @@ impl Ahrs {
         if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
             if let (Some(up_b), Some(up_g)) = (self.gravity.up_body(&a_gyro), up_gyro) {
                 let rate = self.rest.gyr_lowpass() - bias;
-                field.update_by(
+                if let Some(jump) = field.update_by(
                     &c.mag,
                     &mag,
                     &up_b,
@@ -367,7 +367,15 @@ impl Ahrs {
                     rate.norm(),
                     dt,
                     &gains.field,
-                );
+                ) {
+                    // A new offset turns the readings by `jump`: the heading the old ones gave may
+                    // be wrong by as much.
+                    let e = filter.estimate();
+                    let a = e.q.attitude_matrix();
+                    let p: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+                    let now = (a.transpose() * p * a)[(2, 2)].max(0.0);
+                    floor(filter, &e, Axes::Heading, (now + jump * jump).sqrt())?;
+                }
             }
             self.counts.mag_disturbed = field.disturbed();
             self.counts.mag_new_fields = field.new_fields;
