@@ -42,6 +42,10 @@ pub struct ImuStudyArgs {
     /// and report every trial's held-out scores beside its in-sample ones.
     #[arg(long, requires = "tune")]
     loo: bool,
+    /// With --tune: also leave one set out (the trials of a folder: tune on the other sets, score that
+    /// one, for each set) and report every trial's held-out scores beside its in-sample ones.
+    #[arg(long, requires = "tune")]
+    loo_sets: bool,
     /// With --tune: write the whole result (values, tables, folds) to this JSON file.
     #[arg(long, requires = "tune")]
     out: Option<PathBuf>,
@@ -152,6 +156,60 @@ fn tune(args: &ImuStudyArgs, spec_path: &std::path::Path, trials: &[Trial]) -> R
             );
         }
     }
+    let mut set_folds = Vec::new();
+    if args.loo_sets {
+        let mut sets: Vec<&str> = trials.iter().map(|t| t.set.as_str()).collect();
+        sets.sort_unstable();
+        sets.dedup();
+        for held in &sets {
+            let rest: Vec<usize> = all
+                .iter()
+                .copied()
+                .filter(|&i| trials[i].set != *held)
+                .collect();
+            let point = tuner.descend(&tuned, &rest)?;
+            let s = tuner.scores(&point)?;
+            eprintln!(
+                "set fold {held}: tuned on the other sets, {} evaluations so far",
+                tuner.evaluations
+            );
+            let rows: Vec<serde_json::Value> = all
+                .iter()
+                .filter(|&&i| trials[i].set == *held)
+                .map(|&i| {
+                    serde_json::json!({
+                        "trial": trials[i].name,
+                        "held_out": s[i],
+                        "in_sample": tuned_scores[i],
+                        "reference": spec.reference_scores.get(&trials[i].name).map(|r| r.0),
+                    })
+                })
+                .collect();
+            set_folds.push(serde_json::json!({
+                "set": held,
+                "values": values(&point),
+                "trials": rows,
+            }));
+        }
+        println!("| set | trial | in-sample total ° | held-out total ° | reference total ° | held-out tilt in 99% | held-out 3-axis in 99% | held-out tilt NEES med. |");
+        println!("|---|---|---:|---:|---:|---:|---:|---:|");
+        for f in &set_folds {
+            for r in f["trials"].as_array().into_iter().flatten() {
+                let (i, h) = (&r["in_sample"], &r["held_out"]);
+                println!(
+                    "| {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {:.2} |",
+                    f["set"].as_str().unwrap_or(""),
+                    r["trial"].as_str().unwrap_or(""),
+                    i["total_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                    h["total_rmse_deg"].as_f64().unwrap_or(f64::NAN),
+                    r["reference"].as_f64().unwrap_or(f64::NAN),
+                    h["tilt_in99"].as_f64().unwrap_or(f64::NAN),
+                    h["att_in99"].as_f64().unwrap_or(f64::NAN),
+                    h["tilt_nees_median"].as_f64().unwrap_or(f64::NAN),
+                );
+            }
+        }
+    }
     if let Some(out) = &args.out {
         let names: Vec<&str> = trials.iter().map(|t| t.name.as_str()).collect();
         let doc = serde_json::json!({
@@ -164,6 +222,7 @@ fn tune(args: &ImuStudyArgs, spec_path: &std::path::Path, trials: &[Trial]) -> R
             "tuned": values(&tuned),
             "tuned_scores": tuned_scores,
             "folds": folds,
+            "set_folds": set_folds,
             "evaluations": tuner.evaluations,
         });
         std::fs::write(out, serde_json::to_string_pretty(&doc)?)?;

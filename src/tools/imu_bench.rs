@@ -126,6 +126,7 @@ mod tests {
             truth: Vec::new(),
             movement: Vec::new(),
             truth_model: Default::default(),
+            set: String::new(),
         };
         for k in 0..700 {
             let time = k as f64 * dt;

@@ -57,6 +57,9 @@ pub struct Trial {
     pub movement: Vec<bool>,
     /// How the truth relates to the estimator's frames and what it may be off by.
     pub truth_model: TruthModel,
+    /// The set it belongs to (the name of the folder it was read from; a tuning weighs every set
+    /// alike).
+    pub set: String,
 }
 
 /// The description of a trial's truth, as a trial file's JSON trailer or a CSV trial's `#` lines
@@ -154,6 +157,7 @@ impl Trial {
             truth: Vec::new(),
             movement: Vec::new(),
             truth_model,
+            set: String::new(),
         }
     }
 
@@ -271,10 +275,19 @@ pub fn read_trial(path: &Path) -> Result<Trial, StudyError> {
     } else {
         parse_trial(&name, &bytes)
     };
-    parsed.map_err(|message| StudyError::Format {
-        path: path.display().to_string(),
-        message,
-    })
+    parsed
+        .map(|mut t| {
+            t.set = path
+                .parent()
+                .and_then(|p| p.file_name())
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            t
+        })
+        .map_err(|message| StudyError::Format {
+            path: path.display().to_string(),
+            message,
+        })
 }
 
 /// The bytes of a trial file (tests; the exporter writes the same with numpy).
@@ -674,6 +687,11 @@ pub struct TuneSpec {
     pub tilt_weight: f64,
     pub nees_min: f64,
     pub nees_weight: f64,
+    /// The same for the 3-axis error: `att_weight · max(0, att_in99_min − att_in99)`.
+    #[serde(default)]
+    pub att_in99_min: f64,
+    #[serde(default)]
+    pub att_weight: f64,
     /// Optional: a peer's RMSEs on the same trials (`{"TRIAL": {"total_rmse_deg": .., "inclination_rmse_deg":
     /// ..}}`, a path relative to the specification) and the weight of a trial's loss against it:
     /// `reference_weight · (max(0, ln(total/peer)) + max(0, ln(incl./peer)))` (the targets are per trial).
@@ -690,21 +708,28 @@ pub struct TuneSpec {
 /// `ln(total RMSE) + ln(inclination RMSE)` (the log of the geometric means, so every trial counts
 /// by its ratio, not its size) plus the mean honesty penalty.
 pub fn objective(spec: &TuneSpec, trials: &[Trial], scores: &[Scores], which: &[usize]) -> f64 {
+    // Every set weighs alike, and every trial alike within its set.
+    let mut per_set: BTreeMap<&str, usize> = BTreeMap::new();
+    for &i in which {
+        *per_set.entry(trials[i].set.as_str()).or_insert(0) += 1;
+    }
     let mut sum = 0.0;
     for &i in which {
         let s = &scores[i];
+        let weight = 1.0 / (per_set.len() * per_set[trials[i].set.as_str()]) as f64;
         let accuracy = s.total_rmse_deg.ln() + s.inclination_rmse_deg.ln();
         let mut penalty = spec.tilt_weight * (spec.tilt_in99_min - s.tilt_in99).max(0.0)
-            + spec.nees_weight * (spec.nees_min - s.tilt_nees_median).max(0.0);
+            + spec.nees_weight * (spec.nees_min - s.tilt_nees_median).max(0.0)
+            + spec.att_weight * (spec.att_in99_min - s.att_in99).max(0.0);
         if let Some((total, incl)) = spec.reference_scores.get(&trials[i].name) {
             penalty += spec.reference_weight
                 * ((s.total_rmse_deg / total).ln().max(0.0)
                     + (s.inclination_rmse_deg / incl).ln().max(0.0));
         }
         let v = accuracy + penalty;
-        sum += if v.is_finite() { v } else { 1e6 };
+        sum += weight * if v.is_finite() { v } else { 1e6 };
     }
-    sum / which.len().max(1) as f64
+    sum
 }
 
 /// Evaluations of parameter points, remembered (folds of a leave-one-out share most of them).

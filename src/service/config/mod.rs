@@ -7,7 +7,9 @@ mod raw;
 use super::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
 use super::keys::{Keys, Leaf};
 pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
-use crate::ahrs::{AccConfig, AhrsConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig};
+use crate::ahrs::{
+    AccConfig, AhrsConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
+};
 use crate::attitude::Grp;
 use crate::filters::{
     Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, GyroErrors, Kernel, QpfOptions,
@@ -408,6 +410,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     let imu = AhrsConfig {
         timing_sigma_s: raw.imu.timing_sigma_s,
         init: raw.imu.init.clone(),
+        gyro: raw.imu.gyro.clone(),
         rest: raw.imu.rest.clone(),
         acc: raw.imu.acc.clone(),
         mag: raw.imu.mag.clone(),

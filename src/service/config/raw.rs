@@ -225,6 +225,7 @@ pub(super) struct RawImu {
     pub(super) max_estimate_rate_hz: f64,
     pub(super) timing_sigma_s: f64,
     pub(super) init: InitConfig,
+    pub(super) gyro: GyroConfig,
     pub(super) rest: RestConfig,
     pub(super) acc: AccConfig,
     pub(super) mag: MagConfig,

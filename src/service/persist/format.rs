@@ -14,7 +14,7 @@ use crate::ahrs::field::{FieldChannel, HardIronFit, HardIronSolution};
 use crate::ahrs::gravity::GravityChannel;
 use crate::ahrs::lowpass::Lowpass3;
 use crate::ahrs::rest::RestDetector;
-use crate::ahrs::{AhrsCounts, AhrsState, Phase};
+use crate::ahrs::{AhrsCounts, AhrsState, GyroChannel, Phase};
 use crate::attitude::{Grp, Quaternion};
 use crate::filters::qpf::Cloud;
 use crate::filters::sghqf::Points;
@@ -461,6 +461,7 @@ saved!(GravityV5 for GravityChannel {
     lp: Lowpass3,
     lp2: Lowpass3,
     motion_ms: f64,
+    frame_var: f64,
     g0: f64,
     since_update_s: f64,
     sigma_lp_rad: f64,
@@ -553,6 +554,14 @@ saved!(AhrsCountsV5 for AhrsCounts {
     tilt_reacquisitions: u64,
     heading_reacquisitions: u64,
     tilt_sigma_lp_rad: f64,
+    gyro_saturated: u64,
+});
+saved!(GyroChannelV5 for GyroChannel {
+    previous: Option<Vector3<f64>>,
+    largest: f64,
+    clipped: bool,
+    run: u32,
+    saturated: u64,
 });
 
 #[derive(Serialize, Deserialize)]
@@ -611,6 +620,7 @@ saved!(AhrsV5 for AhrsState {
     phase: Phase,
     t_s: Option<f64>,
     q_gyro: Quaternion,
+    gyro: GyroChannel,
     rest: RestDetector,
     gravity: GravityChannel,
     field: Option<FieldChannel>,

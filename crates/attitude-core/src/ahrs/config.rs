@@ -1,6 +1,8 @@
 //! The pipeline's configuration: one section per model, each with the defaults the preset starts
 //! from, and their validation.
 
+use super::gyro::GyroConfig;
+
 /// Everything the pipeline assumes about the sensors (`service.imu` of the configuration;
 /// `config/imu.json5` is the preset). The gyro noise itself is the filter's (`service.filter`).
 #[derive(Clone, Debug, PartialEq)]
@@ -12,6 +14,7 @@ pub struct AhrsConfig {
     /// over that time, `σ_t² ω ωᵀ` about the turn axis; the filter itself does not use it.
     pub timing_sigma_s: f64,
     pub init: InitConfig,
+    pub gyro: GyroConfig,
     pub rest: RestConfig,
     pub acc: AccConfig,
     pub mag: MagConfig,
@@ -157,6 +160,7 @@ impl Default for AhrsConfig {
         AhrsConfig {
             timing_sigma_s: 0.0,
             init: InitConfig::default(),
+            gyro: GyroConfig::default(),
             rest: RestConfig::default(),
             acc: AccConfig::default(),
             mag: MagConfig::default(),
@@ -285,6 +289,7 @@ impl AhrsConfig {
                 self.timing_sigma_s
             ));
         }
+        self.gyro.validate()?;
         let i = &self.init;
         nonneg(i.duration_s, "init.duration_s")?;
         positive(i.tilt_sigma_rad, "init.tilt_sigma_rad")?;

@@ -323,6 +323,13 @@ impl FieldChannel {
         self.direction = direction(north, dip);
     }
 
+    /// Keeps `hard_iron.restart_weight` of what the hard-iron fit has seen (the gyro frame it was
+    /// kept in has just turned wrongly: a saturated gyro).
+    pub fn forget_fit(&mut self, c: &MagConfig) {
+        self.fit.forget(c.hard_iron.restart_weight);
+        self.fit_ok_s = 0.0;
+    }
+
     /// The reference direction now: north (the horizontal part of `direction`, which only a new field
     /// turns) at the current dip. The reference adapts its dip at every undisturbed sample; its
     /// direction is formed here, when an observation or a caller uses it (a `sin_cos` per use, not per
@@ -350,12 +357,28 @@ impl FieldChannel {
     }
 
     fn within(&self, c: &MagConfig, norm: f64, dip: f64, ref_norm: f64, ref_dip: f64) -> bool {
-        (norm - ref_norm).abs() < c.norm_limit * ref_norm && (dip - ref_dip).abs() < c.dip_limit_rad
+        self.within_by(c, norm, dip, ref_norm, ref_dip, 0.0)
+    }
+
+    /// [`FieldChannel::within`] with the dip limit widened by what the vertical it is measured
+    /// against may be off by (`up_sigma_rad`, 1σ: 2.5σ of it).
+    fn within_by(
+        &self,
+        c: &MagConfig,
+        norm: f64,
+        dip: f64,
+        ref_norm: f64,
+        ref_dip: f64,
+        up_sigma_rad: f64,
+    ) -> bool {
+        (norm - ref_norm).abs() < c.norm_limit * ref_norm
+            && (dip - ref_dip).abs() < c.dip_limit_rad + 2.5 * up_sigma_rad
     }
 
     /// Takes one reading (body frame); `up_body` is the accelerometer's low-passed vertical in the body
     /// frame, `up_gyro` the same in the gyro frame, `a_gyro` the gyro frame's attitude matrix,
-    /// `rate_rad_s` the low-passed turn rate.
+    /// `rate_rad_s` the low-passed turn rate, `up_sigma_rad` what the low-passed vertical may be off
+    /// by beyond its usual error (the gyro frame's own error after a saturated gyro).
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
@@ -365,10 +388,21 @@ impl FieldChannel {
         up_gyro: &Vector3<f64>,
         a_gyro: &Matrix3<f64>,
         rate_rad_s: f64,
+        up_sigma_rad: f64,
         dt_s: f64,
     ) -> Option<f64> {
         let g = FieldGains::new(c, dt_s);
-        self.update_by(c, mag, up_body, up_gyro, a_gyro, rate_rad_s, dt_s, &g)
+        self.update_by(
+            c,
+            mag,
+            up_body,
+            up_gyro,
+            a_gyro,
+            rate_rad_s,
+            up_sigma_rad,
+            dt_s,
+            &g,
+        )
     }
 
     /// [`FieldChannel::update`] with the gains of the interval given ([`super::gains`]). Returns the
@@ -383,6 +417,7 @@ impl FieldChannel {
         up_gyro: &Vector3<f64>,
         a_gyro: &Matrix3<f64>,
         rate_rad_s: f64,
+        up_sigma_rad: f64,
         dt_s: f64,
         g: &FieldGains,
     ) -> Option<f64> {
@@ -407,7 +442,7 @@ impl FieldChannel {
             (self.lp_norm, self.lp_dip, self.lp_ready) = (n, dip, true);
         }
         let (ln, ld) = (self.lp_norm, self.lp_dip);
-        if self.within(c, ln, ld, self.norm, self.dip) {
+        if self.within_by(c, ln, ld, self.norm, self.dip, up_sigma_rad) {
             self.undisturbed_s += dt;
             if self.undisturbed_s >= c.min_undisturbed_s {
                 self.disturbed = false;
@@ -424,7 +459,14 @@ impl FieldChannel {
             self.disturbed = true;
         }
         // A new field: consistent readings over enough rotation.
-        if self.within(c, ln, ld, self.candidate_norm, self.candidate_dip) {
+        if self.within_by(
+            c,
+            ln,
+            ld,
+            self.candidate_norm,
+            self.candidate_dip,
+            up_sigma_rad,
+        ) {
             if rate_rad_s >= c.new_field_min_rate_rad_s {
                 self.candidate_s += dt;
             }
@@ -560,6 +602,7 @@ impl FieldChannel {
         c: &MagConfig,
         mag: &Vector3<f64>,
         rate_rad_s: f64,
+        up_sigma_rad: f64,
     ) -> HeadingObservation {
         if self.since_update_s + 1e-9 < c.interval_s {
             return HeadingObservation::NotDue;
@@ -584,7 +627,8 @@ impl FieldChannel {
         // turns the horizontal part by as much again: about √(δn² + δd²)·B / B_h of heading.
         let deviation = if self.lp_ready {
             let dn = (self.lp_norm - self.norm) / self.norm.max(1e-12);
-            let dd = self.lp_dip - self.dip;
+            // (Less what the vertical the dip is measured against may be off by.)
+            let dd = ((self.lp_dip - self.dip).abs() - 2.5 * up_sigma_rad).max(0.0);
             c.deviation_gain * (dn * dn + dd * dd).sqrt() / horizontal
         } else {
             0.0
@@ -712,8 +756,8 @@ mod tests {
             let a = q.attitude_matrix();
             // The gyro frame is the reference frame here (a perfect gyro).
             let m = a * field(65.0) + offset;
-            ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), dt);
-            if let HeadingObservation::Rejected = ch.observation(&c, &m, 0.0) {
+            ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), 0.0, dt);
+            if let HeadingObservation::Rejected = ch.observation(&c, &m, 0.0, 0.0) {
                 rejected += 1;
             }
             if accepted_at.is_none() && ch.hard_iron_changes > 0 {
@@ -735,20 +779,29 @@ mod tests {
         let mut ch = FieldChannel::new(45.0, 65f64.to_radians(), &Vector3::y());
         let a = Quaternion::from_euler_321(0.2, -0.1, 0.5).attitude_matrix();
         for _ in 0..500 {
-            ch.update(&c, &(a * field(65.0)), &(a * UP), &UP, &a, 0.0, 0.01);
+            ch.update(&c, &(a * field(65.0)), &(a * UP), &UP, &a, 0.0, 0.0, 0.01);
             assert!(!ch.disturbed());
             assert!(matches!(
-                ch.observation(&c, &(a * field(65.0)), 0.0),
+                ch.observation(&c, &(a * field(65.0)), 0.0, 0.0),
                 HeadingObservation::Use(..) | HeadingObservation::NotDue
             ));
         }
         assert_eq!(ch.offset(), Vector3::zeros());
         for _ in 0..100 {
-            ch.update(&c, &(a * field(65.0) * 1.3), &(a * UP), &UP, &a, 0.0, 0.01);
+            ch.update(
+                &c,
+                &(a * field(65.0) * 1.3),
+                &(a * UP),
+                &UP,
+                &a,
+                0.0,
+                0.0,
+                0.01,
+            );
         }
         assert!(ch.disturbed());
         assert_eq!(
-            ch.observation(&c, &(a * field(65.0) * 1.3), 0.0),
+            ch.observation(&c, &(a * field(65.0) * 1.3), 0.0, 0.0),
             HeadingObservation::Rejected
         );
     }
@@ -775,7 +828,7 @@ mod tests {
                     .compose(&Quaternion::from_rotation_vector(&(Vector3::y() * wobble)));
                 let a = q.attitude_matrix();
                 let m = a * field(65.0) + Vector3::new(6.0, 0.0, 0.0);
-                ch.update(&c, &m, &(a * UP), &UP, &a, 0.0, dt);
+                ch.update(&c, &m, &(a * UP), &UP, &a, 0.0, 0.0, dt);
             }
             (ch.hard_iron_changes, ch.fit.excitation())
         };
@@ -807,7 +860,7 @@ mod tests {
             q = q.propagate(&w, dt);
             let a = q.attitude_matrix();
             let m = a * field(65.0) + offset;
-            if let Some(j) = ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), dt) {
+            if let Some(j) = ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), 0.0, dt) {
                 jump.get_or_insert(j);
             }
         }

@@ -43,6 +43,10 @@ pub struct GravityChannel {
     pub lp2: Lowpass3,
     /// The low-passed square of the horizontal part of their difference, (m/s²)².
     pub motion_ms: f64,
+    /// Variance of the gyro frame's own error within the low-pass, rad² (rotation the gyro could not
+    /// measure, a saturated run's: the low-passed vector mixes readings from before it, turned
+    /// wrongly against those after it, until the low-pass has forgotten them).
+    pub frame_var: f64,
     /// Gravity's norm, learned at rest, m/s².
     pub g0: f64,
     pub since_update_s: f64,
@@ -56,6 +60,7 @@ impl GravityChannel {
             lp: Lowpass3::new(c.lowpass_s),
             lp2: Lowpass3::new(2.0 * c.lowpass_s),
             motion_ms: 0.0,
+            frame_var: 0.0,
             g0,
             since_update_s: f64::INFINITY,
             sigma_lp_rad: c.sigma_rad,
@@ -100,6 +105,11 @@ impl GravityChannel {
         if !self.motion_ms.is_finite() {
             self.motion_ms = 0.0;
         }
+        // The readings from before a frame error weigh less as e^{−t/τ}: its variance as e^{−2t/τ}.
+        if self.frame_var > 0.0 {
+            let keep = 1.0 - k.unwrap_or(1.0);
+            self.frame_var *= keep * keep;
+        }
         self.since_update_s += dt_s.max(0.0);
         if n <= 1e-12 {
             None
@@ -138,7 +148,7 @@ impl GravityChannel {
             c.sigma_rad
         };
         let motion = c.motion_gain * self.motion_rms() / self.g0.max(1e-9);
-        (base * base + motion * motion).sqrt()
+        (base * base + motion * motion + self.frame_var).sqrt()
     }
 
     /// The tilt observation when one is due (every `interval_s`).

@@ -30,6 +30,7 @@ mod config;
 pub mod field;
 pub mod gains;
 pub mod gravity;
+pub mod gyro;
 pub mod lowpass;
 pub mod rest;
 mod state;
@@ -45,6 +46,7 @@ pub use config::{
 use field::{FieldChannel, HeadingObservation};
 use gains::{GainCache, IntervalGains};
 use gravity::{GravityChannel, TiltObservation};
+pub use gyro::{GyroChannel, GyroConfig};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
 pub use state::{AhrsState, Phase};
@@ -67,6 +69,8 @@ pub struct AhrsCounts {
     pub heading_reacquisitions: u64,
     /// The 1σ of the low-passed gravity direction now, rad.
     pub tilt_sigma_lp_rad: f64,
+    /// Gyro samples at or beyond 98% of the range (saturated).
+    pub gyro_saturated: u64,
 }
 
 /// The pipeline's state for one vehicle.
@@ -77,6 +81,7 @@ pub struct Ahrs {
     t_s: Option<f64>,
     /// The gyro frame: the attitude (gyro frame → body) integrated from the gyro alone.
     q_gyro: Quaternion,
+    gyro: GyroChannel,
     rest: RestDetector,
     gravity: GravityChannel,
     field: Option<FieldChannel>,
@@ -114,6 +119,7 @@ impl Ahrs {
             },
             t_s: None,
             q_gyro: Quaternion::IDENTITY,
+            gyro: GyroChannel::default(),
             rest: RestDetector::new(&c.rest),
             gravity: GravityChannel::new(&c.acc, 9.81),
             field: None,
@@ -307,8 +313,21 @@ impl Ahrs {
         } = self.preprocess(c, s, &bias);
         let omega = s.gyr_rad_s - bias;
         self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
-        // The rate over (t_prev, t]: held from t_prev, then the filter moves to t.
-        filter.gyro_interval(t_prev, &s.gyr_rad_s, s.t_s)?;
+        // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
+        // sample may hide beside the gyro model (the rate's change, saturation).
+        let hidden = self.gyro.step(&c.gyro, &s.gyr_rad_s, dt);
+        if self.gyro.run > 0 {
+            // The gyro frame turned by less than the body: what the low-pass and the hard-iron fit
+            // hold from before is turned wrongly against what comes after.
+            self.gravity.frame_var += hidden;
+            if self.gyro.run == 1 {
+                if let Some(f) = self.field.as_mut() {
+                    f.forget_fit(&c.mag);
+                }
+            }
+        }
+        self.counts.gyro_saturated = self.gyro.saturated;
+        filter.gyro_interval_with(t_prev, &s.gyr_rad_s, s.t_s, hidden)?;
         let at_rest = self.counts.at_rest;
         // Bias at rest.
         self.since_bias_s += dt;
@@ -365,6 +384,7 @@ impl Ahrs {
                     &up_g,
                     &a_gyro,
                     rate.norm(),
+                    self.gravity.frame_var.sqrt(),
                     dt,
                     &gains.field,
                 ) {
@@ -380,7 +400,7 @@ impl Ahrs {
             self.counts.mag_disturbed = field.disturbed();
             self.counts.mag_new_fields = field.new_fields;
             self.counts.mag_hard_iron_changes = field.hard_iron_changes;
-            match field.observation(&c.mag, &mag, omega.norm()) {
+            match field.observation(&c.mag, &mag, omega.norm(), self.gravity.frame_var.sqrt()) {
                 HeadingObservation::NotDue => {}
                 HeadingObservation::Rejected => self.counts.mag_rejected += 1,
                 HeadingObservation::Use(o, sigma_psi) => {

@@ -3,6 +3,7 @@
 
 use super::field::FieldChannel;
 use super::gravity::GravityChannel;
+use super::gyro::GyroChannel;
 use super::rest::RestDetector;
 use super::{Ahrs, AhrsCounts};
 use crate::attitude::Quaternion;
@@ -28,6 +29,7 @@ pub struct AhrsState {
     pub phase: Phase,
     pub t_s: Option<f64>,
     pub q_gyro: Quaternion,
+    pub gyro: GyroChannel,
     pub rest: RestDetector,
     pub gravity: GravityChannel,
     pub field: Option<FieldChannel>,
@@ -45,6 +47,7 @@ impl Ahrs {
             phase: self.phase.clone(),
             t_s: self.t_s,
             q_gyro: self.q_gyro,
+            gyro: self.gyro.clone(),
             rest: self.rest.clone(),
             gravity: self.gravity.clone(),
             field: self.field.clone(),
@@ -71,6 +74,7 @@ impl Ahrs {
             phase: s.phase,
             t_s: s.t_s,
             q_gyro: s.q_gyro,
+            gyro: s.gyro,
             rest: s.rest,
             gravity: s.gravity,
             field: s.field,

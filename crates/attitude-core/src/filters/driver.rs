@@ -27,6 +27,9 @@ pub struct Driver<F: FilterCore> {
     /// ARW of the gyro model, for the held sample's noise during a gap.
     pub(super) sigma_v: f64,
     pub(super) gyro_gaps: u64,
+    /// Attitude variance per axis that the next propagation adds (set by
+    /// [`AttitudeFilter::gyro_interval_with`] for its interval only; not state).
+    pub(super) step_extra_rad2: f64,
 }
 
 /// The interval assumed for the first gyro sample's noise, s.
@@ -49,6 +52,7 @@ impl<F: FilterCore> Driver<F> {
             },
             sigma_v: 0.0,
             gyro_gaps: 0,
+            step_extra_rad2: 0.0,
         }
     }
 
@@ -105,7 +109,8 @@ impl<F: FilterCore> Driver<F> {
             }
             // A failed propagation leaves the filter as it was (the core's contract); the inflation,
             // checked finite above, cannot fail.
-            self.core.propagate(&omega, dt)?;
+            let extra = std::mem::take(&mut self.step_extra_rad2);
+            self.core.propagate_with(&omega, dt, extra)?;
             if let Some((var, started)) = inflation {
                 self.core.inflate_attitude(&(Matrix3::identity() * var));
                 if started {
@@ -252,14 +257,28 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
         omega_body_rad_s: &Vector3<f64>,
         t_s: f64,
     ) -> Result<(), FilterError> {
+        self.gyro_interval_with(t_prev_s, omega_body_rad_s, t_s, 0.0)
+    }
+
+    fn gyro_interval_with(
+        &mut self,
+        t_prev_s: f64,
+        omega_body_rad_s: &Vector3<f64>,
+        t_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
         let g = GyroSample {
             t_s: t_prev_s,
             omega_body_rad_s: *omega_body_rad_s,
         };
         validate_gyro(&g)?;
+        check_finite([t_s, extra_rad2], "time and extra variance")?;
         self.take_gyro(&g)?;
-        check_finite([t_s], "time")?;
-        self.propagate_to(t_s)
+        // (Only the move over this interval adds it; a failed step leaves nothing pending.)
+        self.step_extra_rad2 = extra_rad2.max(0.0);
+        let r = self.propagate_to(t_s);
+        self.step_extra_rad2 = 0.0;
+        r
     }
 
     fn observe(&mut self, t_s: f64, observation: &VectorObservation) -> Result<(), FilterError> {

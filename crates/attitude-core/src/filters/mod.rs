@@ -273,7 +273,18 @@ pub trait FilterCore: Send {
     fn spec(&self) -> FilterSpec;
     /// Propagates over `dt_s > 0` with the measured rate `omega_meas_rad_s` (the gyro bias is the
     /// filter's to remove).
-    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError>;
+    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+        self.propagate_with(omega_meas_rad_s, dt_s, 0.0)
+    }
+    /// [`FilterCore::propagate`] with `extra_rad2` of attitude variance per axis added over the step
+    /// beside the gyro model's own (what a sample's rate may hide: a saturated axis, the rate's
+    /// change over the interval); the same bits as `propagate` for 0.
+    fn propagate_with(
+        &mut self,
+        omega_meas_rad_s: &Vector3<f64>,
+        dt_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError>;
     /// Updates with the observations taken at the current time.
     fn update(&mut self, observations: &[VectorObservation]) -> Result<(), FilterError>;
     /// The estimate (its `t_s` is filled in by the driver).
@@ -326,6 +337,22 @@ pub trait AttitudeFilter: Send {
             omega_body_rad_s: *omega_body_rad_s,
         }))?;
         self.advance_to(t_s)
+    }
+    /// [`AttitudeFilter::gyro_interval`] with `extra_rad2` of attitude variance per axis added over
+    /// the interval beside the gyro model's own ([`FilterCore::propagate_with`]); exactly
+    /// `gyro_interval` for 0.
+    fn gyro_interval_with(
+        &mut self,
+        t_prev_s: f64,
+        omega_body_rad_s: &Vector3<f64>,
+        t_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
+        self.gyro_interval(t_prev_s, omega_body_rad_s, t_s)?;
+        if extra_rad2 > 0.0 {
+            self.inflate_attitude(&(Matrix3::identity() * extra_rad2))?;
+        }
+        Ok(())
     }
     /// One vector observation taken at `t_s`: exactly `process` of the set of that one observation,
     /// without making the set (the raw-IMU pipeline's tilt and heading updates).

@@ -185,6 +185,7 @@ impl<F: FilterCore> Driver<F> {
             gap: s.gap,
             sigma_v: s.sigma_v,
             gyro_gaps: s.gyro_gaps,
+            step_extra_rad2: 0.0,
         })
     }
 }

@@ -240,10 +240,10 @@ impl Usque {
 
     /// `Q̄` in the filter's units (attitude block divided by `k²`), with half the rate-proportional
     /// noise of [`GyroErrors`] at the estimated rate `omega_hat` (`Q̄` is added twice).
-    fn q_bar(&self, dt_s: f64, omega_hat: &Vector3<f64>) -> Matrix6<f64> {
+    fn q_bar(&self, dt_s: f64, omega_hat: &Vector3<f64>, extra_rad2: f64) -> Matrix6<f64> {
         let k = self.options.grp.small_angle_factor();
         let mut q = process_noise_bar(&self.gyro, dt_s);
-        let extra = 0.5 * self.gyro_errors.rate_variance(omega_hat, dt_s);
+        let extra = 0.5 * (self.gyro_errors.rate_variance(omega_hat, dt_s) + extra_rad2);
         for i in 0..3 {
             q[(i, i)] = (q[(i, i)] + extra) / (k * k);
         }
@@ -312,14 +312,19 @@ impl FilterCore for Usque {
     }
 
     /// Steps 1–5 of docs/algorithms.md §3 over `dt_s` with the measured rate `ω̃`.
-    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+    fn propagate_with(
+        &mut self,
+        omega_meas_rad_s: &Vector3<f64>,
+        dt_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
         if !(dt_s.is_finite() && dt_s > 0.0 && all_finite(omega_meas_rad_s.iter())) {
             return Err(FilterError::InvalidMeasurement(
                 "propagation needs a finite rate and a positive, finite interval".into(),
             ));
         }
         let grp = self.options.grp;
-        let q_bar = self.q_bar(dt_s, &(omega_meas_rad_s - bias_part(&self.x)));
+        let q_bar = self.q_bar(dt_s, &(omega_meas_rad_s - bias_part(&self.x)), extra_rad2);
         // 1. σ = ± columns of chol((n + λ)(P + Q̄)).
         let l = self
             .spread(&(self.p + q_bar))

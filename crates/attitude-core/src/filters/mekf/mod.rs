@@ -265,10 +265,15 @@ impl FilterCore for Mekf {
         }
     }
 
-    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+    fn propagate_with(
+        &mut self,
+        omega_meas_rad_s: &Vector3<f64>,
+        dt_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
         let omega_hat = omega_meas_rad_s - self.bias;
         let (a, b) = kernels::phi_blocks(&omega_hat.into(), dt_s);
-        let extra = self.gyro_errors.rate_variance(&omega_hat, dt_s);
+        let extra = self.gyro_errors.rate_variance(&omega_hat, dt_s) + extra_rad2;
         // A bounded (Gauss–Markov) bias reverts to zero: x_β ← φ x_β.
         let rate = self.gyro_errors.bias_reversion_rate(&self.gyro);
         let phi_b = if rate > 0.0 {

@@ -362,7 +362,12 @@ impl FilterCore for Qpf {
 
     /// Samples the discrete gyro model exactly for each particle: `βᵢ' = βᵢ + σ_u √Δt N`,
     /// `ω̂ᵢ = ω̃ − ½(βᵢ + βᵢ') − (σ_v²/Δt + σ_u²Δt/12)^{½} N`, `qᵢ ← Ω(ω̂ᵢ) qᵢ`.
-    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+    fn propagate_with(
+        &mut self,
+        omega_meas_rad_s: &Vector3<f64>,
+        dt_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
         // A Gauss–Markov bias (GyroErrors::bias_limit_rad_s) reverts by φ per step with the same
         // stationary spread; a random walk has φ = 1.
         let phi_b = self.gyro_errors.bias_reversion(&self.gyro, dt_s);
@@ -375,7 +380,8 @@ impl FilterCore for Qpf {
         // The rate-proportional noise adds (k ‖ω̂‖)² Δt of attitude variance: (k ‖ω̂‖)²/Δt of rate.
         let extra = self
             .gyro_errors
-            .rate_variance(&(omega_meas_rad_s - self.beta_hat), dt_s);
+            .rate_variance(&(omega_meas_rad_s - self.beta_hat), dt_s)
+            + extra_rad2;
         let sw = (self.gyro.discrete_rate_sigma(dt_s).powi(2) + extra / (dt_s * dt_s)).sqrt();
         let p = kernels::Propagation {
             phi_b,

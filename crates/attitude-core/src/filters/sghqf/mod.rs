@@ -160,9 +160,9 @@ impl Sghqf {
     }
 
     /// `Q̄` (USQUE's, added twice) with half the rate-proportional noise of [`GyroErrors`].
-    fn q_bar(&self, dt_s: f64, omega_hat: &Vector3<f64>) -> Matrix6<f64> {
+    fn q_bar(&self, dt_s: f64, omega_hat: &Vector3<f64>, extra_rad2: f64) -> Matrix6<f64> {
         let mut q = process_noise_bar(&self.gyro, dt_s);
-        let extra = 0.5 * self.gyro_errors.rate_variance(omega_hat, dt_s);
+        let extra = 0.5 * (self.gyro_errors.rate_variance(omega_hat, dt_s) + extra_rad2);
         for i in 0..3 {
             q[(i, i)] += extra;
         }
@@ -238,13 +238,18 @@ impl FilterCore for Sghqf {
     }
 
     /// USQUE's steps 1–5 with the rule's points and weights (docs/algorithms.md §3, SGHQF).
-    fn propagate(&mut self, omega_meas_rad_s: &Vector3<f64>, dt_s: f64) -> Result<(), FilterError> {
+    fn propagate_with(
+        &mut self,
+        omega_meas_rad_s: &Vector3<f64>,
+        dt_s: f64,
+        extra_rad2: f64,
+    ) -> Result<(), FilterError> {
         if !(dt_s.is_finite() && dt_s > 0.0 && all_finite(omega_meas_rad_s.iter())) {
             return Err(FilterError::InvalidMeasurement(
                 "propagation needs a finite rate and a positive, finite interval".into(),
             ));
         }
-        let q_bar = self.q_bar(dt_s, &(omega_meas_rad_s - bias_part(&self.x)));
+        let q_bar = self.q_bar(dt_s, &(omega_meas_rad_s - bias_part(&self.x)), extra_rad2);
         // 1–3. The points about the estimate, each propagated with its own bias.
         let mut pts = self
             .draw(&(self.p + q_bar))

@@ -1,0 +1,188 @@
+"""Alters a recorded IMU trial the way other sensors and drivers differ from the one that recorded it, so that an
+estimator can be checked on what it was never tuned on: another rate, irregular intervals, held (repeated)
+samples, a gyro that saturates, a magnetometer in other units with a hard-iron offset, a start in motion.
+
+    python -m attitude_client.alter TRIAL.hdf5|TRIAL.csv --out OUT.csv [--rate HZ] [--jitter F] [--hold P]
+        [--mag-every K] [--clip RAD_S] [--mag-scale S] [--mag-offset X,Y,Z] [--start-in-motion] [--seed N]
+
+Every alteration keeps the meaning of a sample: sample k's gyro rate covers ``(t_{k−1}, t_k]`` (the convention of
+IMU drivers, VQF and the service), so a lower rate is the mean of the source's rates over each new interval (what a
+sensor's own decimation filter gives, and exactly the same rotation to first order); the accelerometer and the
+magnetometer are averaged over the same interval (anti-aliased); the truth and ``movement`` are the source's at the
+interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attitude-service imu-study`` and
+``attitude-replay`` read, with the source's truth description (``align`` etc.) kept.
+
+* ``--rate HZ``: resample onto a grid at HZ (below the source's rate).
+* ``--jitter F``: irregular intervals: each interval is the nominal one times a uniform factor in ``[1 − F, 1 + F]``
+  (F < 1), then resampled as above.
+* ``--hold P``: with probability P a sample repeats the previous sample's values at its own (new) time, as a driver
+  that publishes before the sensor has a new reading (the rate it holds then covers the interval too).
+* ``--mag-every K``: the magnetometer updates every K-th sample and is held in between (a slower magnetometer).
+* ``--clip R``: every gyro axis clipped at ±R rad/s (a sensor's range).
+* ``--mag-scale S``, ``--mag-offset X,Y,Z``: the magnetometer times S plus a body-fixed offset (other units, a
+  magnet that moves with the body).
+* ``--start-in-motion``: drop every sample before the first ``movement`` sample (no opening rest).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .replay import CSV_COLUMNS, load_trial
+
+
+def resample(trial: dict, times: np.ndarray) -> dict:
+    """The trial on new sample times ``times`` (increasing, within the source's span). Source sample k holds its
+    values over ``(t_{k−1}, t_k]`` (its rate covers that interval); new sample j gets the mean of that piecewise
+    constant signal over ``(τ_{j−1}, τ_j]`` for the gyro, accelerometer and magnetometer (so the gyro's integral,
+    the rotation to first order, is kept exactly), the truth interpolated at ``τ_j`` (slerp between the source
+    samples around it; unknown where either is) and ``movement`` of the source sample that holds ``τ_j``. The first
+    new sample takes the source's values at its time."""
+    t = np.asarray(trial["t"], dtype=float)
+    times = np.asarray(times, dtype=float)
+    dt = np.diff(t)
+    # Sample k (k ≥ 1) holds (t_{k−1}, t_k]; sample 0 a nominal interval before t_0.
+    edges = np.concatenate([[t[0] - (dt[0] if len(dt) else 1.0)], t])
+
+    def integral(x: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """∫ from edges[0] to tau of the piecewise constant x."""
+        widths = np.diff(edges)
+        cum = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x * widths[:, None], axis=0)])
+        k = np.clip(np.searchsorted(edges, tau, side="right") - 1, 0, len(x) - 1)
+        return cum[k] + x[k] * (tau - edges[k])[:, None]
+
+    out = {k: v for k, v in trial.items() if k not in ("gyr", "acc", "mag", "opt_quat", "movement", "t")}
+    holder = np.clip(np.searchsorted(t, times - 1e-12, side="left"), 0, len(t) - 1)
+    for key in ("gyr", "acc", "mag"):
+        x = np.asarray(trial[key], dtype=float)
+        ints = integral(x, times)
+        vals = np.empty((len(times), 3))
+        vals[0] = x[holder[0]]
+        span = np.diff(times)
+        vals[1:] = (ints[1:] - ints[:-1]) / span[:, None]
+        out[key] = vals
+    if trial["opt_quat"] is None:
+        out["opt_quat"] = None
+    else:
+        q = np.asarray(trial["opt_quat"], dtype=float)
+        j = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 2)
+        f = np.clip((times - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0)
+        q0, q1 = q[j], q[j + 1].copy()
+        q1[np.einsum("ij,ij->i", q0, q1) < 0] *= -1.0
+        # Slerp by the relative rotation's angle; NaN where either end is unknown.
+        d = np.clip(np.einsum("ij,ij->i", q0, q1), -1.0, 1.0)
+        ang = np.arccos(d)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = np.sin(ang)
+            a = np.where(s > 1e-12, np.sin((1 - f) * ang) / s, 1 - f)
+            b = np.where(s > 1e-12, np.sin(f * ang) / s, f)
+        qi = a[:, None] * q0 + b[:, None] * q1
+        out["opt_quat"] = qi / np.linalg.norm(qi, axis=1)[:, None]
+    out["movement"] = None if trial["movement"] is None else np.asarray(trial["movement"])[holder]
+    out["t"] = times
+    out["rate_hz"] = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else trial["rate_hz"]
+    return out
+
+
+def alter(
+    trial: dict,
+    rate: float | None = None,
+    jitter: float = 0.0,
+    hold: float = 0.0,
+    mag_every: int = 1,
+    clip: float | None = None,
+    mag_scale: float = 1.0,
+    mag_offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    start_in_motion: bool = False,
+    seed: int = 1,
+) -> dict:
+    """The trial altered as the module documentation says (the alterations in that order)."""
+    rng = np.random.default_rng(seed)
+    out = dict(trial)
+    if start_in_motion:
+        mv = out["movement"]
+        if mv is None or not mv.any():
+            raise ValueError("--start-in-motion needs movement samples")
+        first = int(np.argmax(mv))
+        for key in ("gyr", "acc", "mag", "opt_quat", "movement", "t"):
+            if out[key] is not None:
+                out[key] = out[key][first:]
+    if rate is not None or jitter > 0:
+        if not (0.0 <= jitter < 1.0):
+            raise ValueError("jitter must be in [0, 1)")
+        r = rate if rate is not None else out["rate_hz"]
+        t0, t1 = out["t"][0], out["t"][-1]
+        n = int((t1 - t0) * r * 1.2) + 2
+        dt = np.full(n, 1.0 / r) * (1.0 + jitter * rng.uniform(-1.0, 1.0, n))
+        times = t0 + np.concatenate([[0.0], np.cumsum(dt)])
+        times = times[times <= t1 + 1e-9]
+        out = resample(out, times)
+    n = len(out["t"])
+    for key in ("gyr", "acc", "mag"):
+        out[key] = np.array(out[key], dtype=float, copy=True)
+    if hold > 0:
+        held = rng.uniform(size=n) < hold
+        held[0] = False
+        for k in np.flatnonzero(held):
+            for key in ("gyr", "acc", "mag"):
+                out[key][k] = out[key][k - 1]
+    if mag_every > 1:
+        for k in range(n):
+            if k % mag_every:
+                out["mag"][k] = out["mag"][k - 1]
+    if clip is not None:
+        out["gyr"] = np.clip(out["gyr"], -clip, clip)
+    out["mag"] = out["mag"] * mag_scale + np.asarray(mag_offset, dtype=float)
+    return out
+
+
+def write_csv(trial: dict, path: Path) -> None:
+    """A CSV trial (docs/recordings.md): the truth description as ``#`` lines, the header, a line per sample."""
+    n = len(trial["t"])
+    quat = trial["opt_quat"] if trial["opt_quat"] is not None else np.full((n, 4), np.nan)
+    mv = trial["movement"] if trial["movement"] is not None else np.zeros(n, dtype=bool)
+    with open(path, "w") as fh:
+        for k, v in (trial.get("truth") or {}).items():
+            fh.write(f"# {k}: {v}\n")
+        fh.write(",".join(CSV_COLUMNS) + "\n")
+        for k in range(n):
+            fields = [repr(float(trial["t"][k]))]
+            fields += [repr(float(x)) for x in trial["gyr"][k]]
+            fields += [repr(float(x)) for x in trial["acc"][k]]
+            fields += [repr(float(x)) for x in trial["mag"][k]]
+            fields += ["" if not np.isfinite(x) else repr(float(x)) for x in quat[k]]
+            fields.append("1" if mv[k] else "0")
+            fh.write(",".join(fields) + "\n")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("trial", type=Path)
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--rate", type=float)
+    ap.add_argument("--jitter", type=float, default=0.0)
+    ap.add_argument("--hold", type=float, default=0.0)
+    ap.add_argument("--mag-every", type=int, default=1)
+    ap.add_argument("--clip", type=float)
+    ap.add_argument("--mag-scale", type=float, default=1.0)
+    ap.add_argument("--mag-offset", default="0,0,0")
+    ap.add_argument("--start-in-motion", action="store_true")
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args()
+    trial = load_trial(args.trial, None)
+    offset = tuple(float(x) for x in args.mag_offset.split(","))
+    if len(offset) != 3:
+        ap.error("--mag-offset takes X,Y,Z")
+    out = alter(trial, args.rate, args.jitter, args.hold, args.mag_every, args.clip, args.mag_scale, offset,
+                args.start_in_motion, args.seed)
+    write_csv(out, args.out)
+    print(f"{args.out}: {len(out['t'])} samples, {out['rate_hz']:.2f} Hz")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
