@@ -107,6 +107,7 @@ pub fn reset_request(options: &SimulateOptions, index: usize, run: &SimulatedRun
             init.bias_sigma_rad_s[2],
         ])),
         t: t0,
+        sensor: None,
     }
 }
 

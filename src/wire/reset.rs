@@ -2,6 +2,7 @@
 
 use super::input::{some, some_number, some_object, some_vec3, Three};
 use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
+use crate::ahrs::SensorSheet;
 use crate::filters::sghqf::LEVELS;
 use crate::filters::{Fiducial, FilterKind, FilterSpec};
 use crate::service::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
@@ -97,6 +98,84 @@ pub struct ResetMsg {
     #[serde(default, deserialize_with = "some_number")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub t: Option<f64>,
+    /// The IMU's datasheet values (a raw-IMU vehicle's): those given replace the vehicle's.
+    #[serde(default, deserialize_with = "some_object")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<SensorSheetMsg>,
+}
+
+/// A sensor's datasheet values in a reset request (`proto/README.md`, "The IMU's datasheet"): each
+/// optional, in the datasheet's units, positive.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSheetMsg {
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyro_noise_density_deg_s_sqrt_hz: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyro_bias_instability_deg_h: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyro_range_deg_s: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acc_noise_density_ug_sqrt_hz: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acc_range_g: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mag_noise: Option<f64>,
+}
+
+impl TryFrom<&SensorSheetMsg> for SensorSheet {
+    type Error = Rejection;
+
+    /// Every value finite and positive (a value not given is 0 in the sheet: not given).
+    fn try_from(m: &SensorSheetMsg) -> Result<Self, Rejection> {
+        let mut sheet = SensorSheet::default();
+        for (v, name, at) in [
+            (
+                m.gyro_noise_density_deg_s_sqrt_hz,
+                "gyro_noise_density_deg_s_sqrt_hz",
+                &mut sheet.gyro_noise_density_deg_s_sqrt_hz,
+            ),
+            (
+                m.gyro_bias_instability_deg_h,
+                "gyro_bias_instability_deg_h",
+                &mut sheet.gyro_bias_instability_deg_h,
+            ),
+            (
+                m.gyro_range_deg_s,
+                "gyro_range_deg_s",
+                &mut sheet.gyro_range_deg_s,
+            ),
+            (
+                m.acc_noise_density_ug_sqrt_hz,
+                "acc_noise_density_ug_sqrt_hz",
+                &mut sheet.acc_noise_density_ug_sqrt_hz,
+            ),
+            (m.acc_range_g, "acc_range_g", &mut sheet.acc_range_g),
+            (m.mag_noise, "mag_noise", &mut sheet.mag_noise),
+        ] {
+            let Some(v) = v else { continue };
+            if !v.is_finite() {
+                return Err(Rejection::new(
+                    RejectCode::NonFinite,
+                    format!("sensor.{name} must be finite"),
+                ));
+            }
+            if !(v > 0.0) {
+                return Err(Rejection::new(
+                    RejectCode::OutOfRange,
+                    format!("sensor.{name} must be positive, got {v}"),
+                ));
+            }
+            *at = v;
+        }
+        Ok(sheet)
+    }
 }
 
 /// `P/V/reset` reply.
@@ -216,6 +295,7 @@ impl TryFrom<&ResetMsg> for ResetRequest {
             bias_rad_s: bias,
             bias_sigma_rad_s: bias_sigma,
             t_s: m.t,
+            sensor: m.sensor.as_ref().map(SensorSheet::try_from).transpose()?,
         })
     }
 }

@@ -552,6 +552,7 @@ fn valid_reset() -> impl Strategy<Value = ResetMsg> {
                     bias: bias.map(|(a, b, c)| [a, b, c]),
                     bias_sigma,
                     t,
+                    sensor: None,
                 }
             },
         )

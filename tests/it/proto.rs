@@ -493,6 +493,7 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         bias: Some([0.0, 0.0, 1.0e-6]),
         bias_sigma: Some(PerAxis::One(5.0e-6)),
         t: Some(100.0),
+        sensor: None,
     };
     let reset_other_forms = ResetMsg {
         sigma_deg: Some(PerAxis::One(2.0)),

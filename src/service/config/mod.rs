@@ -9,6 +9,7 @@ use super::keys::{Keys, Leaf};
 pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::{
     AccConfig, AhrsConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
+    SensorSheet,
 };
 use crate::attitude::Grp;
 use crate::filters::{
@@ -304,12 +305,18 @@ fn validate_filter(raw: &RawFilter, at: &str) -> Result<VehicleFilterConfig, Str
         filter,
         init,
         init_bias_sigma_rad_s: Vector3::repeat(bias_sigma),
+        sensor: SensorSheet::default(),
     })
 }
 
 fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     validate_key_prefix(&raw.key_prefix).map_err(|e| format!("service.{e}"))?;
-    let default_filter = validate_filter(&raw.filter, "service.filter")?;
+    let mut default_filter = validate_filter(&raw.filter, "service.filter")?;
+    raw.imu
+        .sensor
+        .validate()
+        .map_err(|e| format!("service.imu.{e}"))?;
+    default_filter.sensor = raw.imu.sensor.clone();
     let mut overrides = BTreeMap::new();
     for (vehicle, o) in &raw.vehicles {
         validate_vehicle_id(vehicle).map_err(|e| format!("service.vehicles: {}", e.message))?;
@@ -344,10 +351,17 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         if o.gyro_bias_limit_deg_s.is_some() {
             f.gyro_bias_limit_deg_s = o.gyro_bias_limit_deg_s;
         }
-        overrides.insert(
-            vehicle.clone(),
-            validate_filter(&f, &format!("service.vehicles.{vehicle}"))?,
-        );
+        let at = format!("service.vehicles.{vehicle}");
+        let mut config = validate_filter(&f, &at)?;
+        if let Some(s) = &o.sensor {
+            s.validate().map_err(|e| format!("{at}.{e}"))?;
+        }
+        // The vehicle's datasheet values, the service's where it gives none.
+        config.sensor = o
+            .sensor
+            .as_ref()
+            .map_or_else(|| raw.imu.sensor.clone(), |s| s.or(&raw.imu.sensor));
+        overrides.insert(vehicle.clone(), config);
     }
     let l = &raw.limits;
     for (v, name) in [

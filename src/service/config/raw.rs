@@ -225,6 +225,8 @@ pub(super) struct RawImu {
     pub(super) max_estimate_rate_hz: f64,
     pub(super) timing_sigma_s: f64,
     pub(super) init: InitConfig,
+    /// The IMU's datasheet values for every vehicle (crate::ahrs::SensorSheet).
+    pub(super) sensor: SensorSheet,
     pub(super) gyro: GyroConfig,
     pub(super) rest: RestConfig,
     pub(super) acc: AccConfig,
@@ -377,6 +379,8 @@ pub(super) struct RawFilterOverride {
     pub(super) init_bias_sigma_deg_hr: Option<f64>,
     pub(super) gyro_rate_noise_sqrt_s: Option<f64>,
     pub(super) gyro_bias_limit_deg_s: Option<f64>,
+    /// The vehicle's IMU datasheet (crate::ahrs::SensorSheet), over `service.imu.sensor`.
+    pub(super) sensor: Option<SensorSheet>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -14,7 +14,7 @@ use crate::ahrs::field::{FieldChannel, HardIronFit, HardIronSolution};
 use crate::ahrs::gravity::GravityChannel;
 use crate::ahrs::lowpass::Lowpass3;
 use crate::ahrs::rest::RestDetector;
-use crate::ahrs::{AhrsCounts, AhrsState, GyroChannel, Phase};
+use crate::ahrs::{AhrsCounts, AhrsState, GyroChannel, NoiseMeter, Phase, SensorSheet};
 use crate::attitude::{Grp, Quaternion};
 use crate::filters::qpf::Cloud;
 use crate::filters::sghqf::Points;
@@ -246,8 +246,25 @@ saved!(
         filter: FilterConfig,
         init: InitMode,
         init_bias_sigma_rad_s: Vector3<f64>,
+        sensor: SensorSheet,
     }
 );
+saved!(SensorSheetV5 for SensorSheet {
+    gyro_noise_density_deg_s_sqrt_hz: f64,
+    gyro_bias_instability_deg_h: f64,
+    gyro_range_deg_s: f64,
+    acc_noise_density_ug_sqrt_hz: f64,
+    acc_range_g: f64,
+    mag_noise: f64,
+});
+saved!(NoiseMeterV5 for NoiseMeter {
+    gyro_var: f64,
+    acc_var: f64,
+    mag_var: f64,
+    dt_s: f64,
+    rest_s: f64,
+    last_mag: Option<Vector3<f64>>,
+});
 
 // Measurements held in the reorder window.
 saved!(GyroSampleV5 for GyroSample { t_s: f64, omega_body_rad_s: Vector3<f64> });
@@ -555,6 +572,7 @@ saved!(AhrsCountsV5 for AhrsCounts {
     heading_reacquisitions: u64,
     tilt_sigma_lp_rad: f64,
     gyro_saturated: u64,
+    acc_saturated: u64,
 });
 saved!(GyroChannelV5 for GyroChannel {
     previous: Option<Vector3<f64>>,
@@ -620,6 +638,8 @@ saved!(AhrsV5 for AhrsState {
     phase: Phase,
     t_s: Option<f64>,
     q_gyro: Quaternion,
+    sheet: SensorSheet,
+    noise: NoiseMeter,
     gyro: GyroChannel,
     rest: RestDetector,
     gravity: GravityChannel,

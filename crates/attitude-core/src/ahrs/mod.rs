@@ -33,6 +33,7 @@ pub mod gravity;
 pub mod gyro;
 pub mod lowpass;
 pub mod rest;
+pub mod sheet;
 mod state;
 
 use crate::attitude::{skew, Quaternion};
@@ -46,9 +47,12 @@ pub use config::{
 use field::{FieldChannel, HeadingObservation};
 use gains::{GainCache, IntervalGains};
 use gravity::{GravityChannel, TiltObservation};
+use gyro::SATURATION_FRACTION;
 pub use gyro::{GyroChannel, GyroConfig};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
+use sheet::STANDARD_G;
+pub use sheet::{MeasuredNoise, NoiseMeter, SensorSheet};
 pub use state::{AhrsState, Phase};
 
 /// What the pipeline has done so far and what it sees now (published with every estimate).
@@ -69,8 +73,9 @@ pub struct AhrsCounts {
     pub heading_reacquisitions: u64,
     /// The 1σ of the low-passed gravity direction now, rad.
     pub tilt_sigma_lp_rad: f64,
-    /// Gyro samples at or beyond 98% of the range (saturated).
+    /// Gyro samples at or beyond 98% of the range (saturated), and accelerometer samples.
     pub gyro_saturated: u64,
+    pub acc_saturated: u64,
 }
 
 /// The pipeline's state for one vehicle.
@@ -81,6 +86,9 @@ pub struct Ahrs {
     t_s: Option<f64>,
     /// The gyro frame: the attitude (gyro frame → body) integrated from the gyro alone.
     q_gyro: Quaternion,
+    /// The sensor as its datasheet states it (the vehicle's), and as the data measure it.
+    sheet: SensorSheet,
+    noise: NoiseMeter,
     gyro: GyroChannel,
     rest: RestDetector,
     gravity: GravityChannel,
@@ -119,6 +127,8 @@ impl Ahrs {
             },
             t_s: None,
             q_gyro: Quaternion::IDENTITY,
+            sheet: SensorSheet::default(),
+            noise: NoiseMeter::default(),
             gyro: GyroChannel::default(),
             rest: RestDetector::new(&c.rest),
             gravity: GravityChannel::new(&c.acc, 9.81),
@@ -145,6 +155,44 @@ impl Ahrs {
 
     pub fn counts(&self) -> &AhrsCounts {
         &self.counts
+    }
+
+    /// The sensor's datasheet values the pipeline uses.
+    pub fn sheet(&self) -> &SensorSheet {
+        &self.sheet
+    }
+
+    /// Uses `sheet` from the next sample on.
+    pub fn set_sheet(&mut self, sheet: &SensorSheet) {
+        self.sheet = sheet.clone();
+    }
+
+    /// The sensors' noise as measured at rest so far.
+    pub fn measured_noise(&self) -> MeasuredNoise {
+        self.noise.measured()
+    }
+
+    /// The gyro configuration with the datasheet's range when the configuration gives none.
+    fn gyro_config(&self, c: &AhrsConfig) -> GyroConfig {
+        let mut g = c.gyro.clone();
+        if g.range_rad_s <= 0.0 {
+            g.range_rad_s = self.sheet.gyro_range_rad_s();
+        }
+        g
+    }
+
+    /// The rest detector's limits, no tighter than five times the sensors' per-sample noise (the
+    /// datasheet's, else the measured): a noisy sensor at rest must still be found at rest.
+    fn rest_config(&self, c: &AhrsConfig, dt_s: f64) -> RestConfig {
+        let mut r = c.rest.clone();
+        let (mut sg, mut sa) = self.noise.sample_sigmas();
+        if dt_s > 0.0 {
+            sg = sg.max(self.sheet.gyro_arw_rad_sqrt_s() / dt_s.sqrt());
+            sa = sa.max(self.sheet.acc_noise_density_m_s2_sqrt_hz() / dt_s.sqrt());
+        }
+        r.gyr_limit_rad_s = r.gyr_limit_rad_s.max(5.0 * sg);
+        r.acc_limit_m_s2 = r.acc_limit_m_s2.max(5.0 * sa);
+        r
     }
 
     /// The field channel's reference (unit direction in the reference frame, norm, dip) and offset.
@@ -176,10 +224,30 @@ impl Ahrs {
                 .normalized()
                 .unwrap_or(self.q_gyro);
         }
-        let at_rest = c.rest.enabled && self.rest.update(&c.rest, &s.gyr_rad_s, &s.acc_m_s2, dt);
+        // A saturated accelerometer reading is not gravity and not rest; its low-pass takes it, but
+        // its direction may be off by what the range hid (half the range, over the low-pass).
+        let acc_range = self.sheet.acc_range_m_s2();
+        let acc_saturated = acc_range > 0.0 && s.acc_m_s2.amax() >= SATURATION_FRACTION * acc_range;
+        let rest_config = self.rest_config(c, dt);
+        let at_rest = c.rest.enabled
+            && !acc_saturated
+            && self
+                .rest
+                .update(&rest_config, &s.gyr_rad_s, &s.acc_m_s2, dt);
         self.counts.at_rest = at_rest;
         if at_rest {
             self.counts.rest_samples += 1;
+            let gyr_dev = s.gyr_rad_s - self.rest.gyr_lowpass();
+            let acc_dev = s.acc_m_s2 - self.rest.acc_lowpass();
+            self.noise.at_rest(&gyr_dev, &acc_dev, s.mag.as_ref(), dt);
+        } else {
+            self.noise.moving();
+        }
+        if acc_saturated {
+            self.counts.acc_saturated += 1;
+            let share = (dt / c.acc.lowpass_s.max(1e-9)).min(1.0);
+            self.gravity.frame_var +=
+                (0.5 * acc_range / self.gravity.g0().max(1e-9) * share).powi(2);
         }
         let a_gyro = self.q_gyro.attitude_matrix();
         let gains = self.gains.get(c, dt);
@@ -243,23 +311,31 @@ impl Ahrs {
         // A (reference → body) has the body-frame images of east, north, up as columns.
         let a = Matrix3::from_columns(&[east_b, north_b, up_b]);
         let q = Quaternion::from_attitude_matrix(&a).normalized()?;
+        // A start in motion: the window's mean specific force is gravity plus the motion, and the
+        // body turned while it was averaged. The tilt may be off by the turn and by as much as the
+        // norm shows of the motion; the heading (taken against that vertical) by that times tan(dip).
+        let turned = self.q_gyro.angle();
+        let norm_off = (acc.norm() / STANDARD_G - 1.0).abs();
+        let moving2 = turned * turned + norm_off * norm_off;
         self.gravity = GravityChannel::new(&c.acc, acc.norm());
         // Replays the alignment window's gravity low-pass from its mean (the frames agree at the
         // start: the gyro frame is re-anchored on the aligned attitude).
         self.q_gyro = q;
         let a_gyro = q.attitude_matrix();
         self.gravity.update(&c.acc, &acc, &a_gyro, 0.0, false);
+        let mut heading_moving2 = moving2;
         if let (Some(m), true) = (mag, from_mag.is_some()) {
             let n = m.norm();
             let dip = crate::sensors::imu::dip_rad(&(m / n), &up_b);
+            heading_moving2 *= dip.tan().powi(2).min(100.0);
             self.field = Some(FieldChannel::new(n, dip, &Vector3::y()));
         }
         self.phase = Phase::Running;
         // Initial covariance: tilt and heading σ in the reference frame, rotated into the body.
         let pe = Matrix3::from_diagonal(&Vector3::new(
-            c.init.tilt_sigma_rad.powi(2),
-            c.init.tilt_sigma_rad.powi(2),
-            c.init.heading_sigma_rad.powi(2),
+            c.init.tilt_sigma_rad.powi(2) + moving2,
+            c.init.tilt_sigma_rad.powi(2) + moving2,
+            c.init.heading_sigma_rad.powi(2) + heading_moving2,
         ));
         let pb = a * pe * a.transpose();
         let mut p = Matrix6::zeros();
@@ -315,7 +391,7 @@ impl Ahrs {
         self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
-        let hidden = self.gyro.step(&c.gyro, &s.gyr_rad_s, dt);
+        let hidden = self.gyro.step(&self.gyro_config(c), &s.gyr_rad_s, dt);
         if self.gyro.run > 0 {
             // The gyro frame turned by less than the body: what the low-pass and the hard-iron fit
             // hold from before is turned wrongly against what comes after.

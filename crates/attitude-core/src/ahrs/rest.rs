@@ -56,6 +56,11 @@ impl RestDetector {
     pub fn gyr_lowpass(&self) -> Vector3<f64> {
         self.gyr_lp.value().unwrap_or_else(Vector3::zeros)
     }
+
+    /// The low-passed specific force, m/s².
+    pub fn acc_lowpass(&self) -> Vector3<f64> {
+        self.acc_lp.value().unwrap_or_else(Vector3::zeros)
+    }
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ use super::field::FieldChannel;
 use super::gravity::GravityChannel;
 use super::gyro::GyroChannel;
 use super::rest::RestDetector;
+use super::sheet::{NoiseMeter, SensorSheet};
 use super::{Ahrs, AhrsCounts};
 use crate::attitude::Quaternion;
 use nalgebra::{Matrix3, Vector3};
@@ -29,6 +30,8 @@ pub struct AhrsState {
     pub phase: Phase,
     pub t_s: Option<f64>,
     pub q_gyro: Quaternion,
+    pub sheet: SensorSheet,
+    pub noise: NoiseMeter,
     pub gyro: GyroChannel,
     pub rest: RestDetector,
     pub gravity: GravityChannel,
@@ -47,6 +50,8 @@ impl Ahrs {
             phase: self.phase.clone(),
             t_s: self.t_s,
             q_gyro: self.q_gyro,
+            sheet: self.sheet.clone(),
+            noise: self.noise.clone(),
             gyro: self.gyro.clone(),
             rest: self.rest.clone(),
             gravity: self.gravity.clone(),
@@ -74,6 +79,8 @@ impl Ahrs {
             phase: s.phase,
             t_s: s.t_s,
             q_gyro: s.q_gyro,
+            sheet: s.sheet,
+            noise: s.noise,
             gyro: s.gyro,
             rest: s.rest,
             gravity: s.gravity,

@@ -675,6 +675,9 @@ impl VehicleState {
         out: &mut Vec<Event>,
     ) -> Result<(), Rejection> {
         let ahrs = self.ahrs.get_or_insert_with(|| Ahrs::new(&policy.imu));
+        if ahrs.sheet() != &self.config.sensor {
+            ahrs.set_sheet(&self.config.sensor);
+        }
         match &mut self.slot {
             Slot::Initializing => {
                 let Some(initial) = ahrs.align(&policy.imu, &s, &self.config.init_bias_sigma_rad_s)

@@ -1,7 +1,7 @@
 //! What a vehicle is configured with: its filter (per vehicle) and the policy every vehicle follows
 //! (service-wide). Validated from the configuration file by `service::config`.
 
-use crate::ahrs::AhrsConfig;
+use crate::ahrs::{AhrsConfig, SensorSheet};
 use crate::filters::FilterConfig;
 use crate::sensors::imu::SensorModel;
 use nalgebra::Vector3;
@@ -23,6 +23,23 @@ pub struct VehicleFilterConfig {
     pub init: InitMode,
     /// 1σ of the initial bias, rad/s.
     pub init_bias_sigma_rad_s: Vector3<f64>,
+    /// The IMU's datasheet values (a raw-IMU vehicle's; the gyro's add to `filter.gyro` when the
+    /// filter is built, [`VehicleFilterConfig::filter_config`]).
+    pub sensor: SensorSheet,
+}
+
+impl VehicleFilterConfig {
+    /// The filter's configuration with the datasheet's gyro noise and bias instability added to the
+    /// gyro model in quadrature (the model's own terms cover what no datasheet states: scale factor,
+    /// misalignment, vibration).
+    pub fn filter_config(&self) -> FilterConfig {
+        let mut f = self.filter.clone();
+        let arw = self.sensor.gyro_arw_rad_sqrt_s();
+        let rrw = self.sensor.gyro_rrw_rad_s_sqrt_s();
+        f.gyro.sigma_v = f.gyro.sigma_v.hypot(arw);
+        f.gyro.sigma_u = f.gyro.sigma_u.hypot(rrw);
+        f
+    }
 }
 
 /// How every vehicle treats time, outliers and failures (service-wide; not part of a checkpoint).

@@ -7,6 +7,7 @@ use super::{
     Event, Published, ResetOutcome, Slot, VehicleState, DEFAULT_RESET_SIGMA_DEG, MAX_PARTICLES,
     STREAMS,
 };
+use crate::ahrs::SensorSheet;
 use crate::attitude::Quaternion;
 use crate::filters::sghqf::LEVELS;
 use crate::filters::{is_spd, Fiducial, FilterKind, FilterSpec, InitialState};
@@ -36,6 +37,8 @@ pub struct ResetRequest {
     pub bias_sigma_rad_s: Option<Vector3<f64>>,
     /// Start time, s: re-anchors the vehicle's clock.
     pub t_s: Option<f64>,
+    /// The IMU's datasheet values (validated); those given replace the vehicle's, the others stay.
+    pub sensor: Option<SensorSheet>,
 }
 
 impl ResetRequest {
@@ -94,6 +97,9 @@ impl ResetRequest {
         }
         if let Some(l) = self.level {
             config.filter.level = l;
+        }
+        if let Some(s) = &self.sensor {
+            config.sensor = s.or(&current.sensor);
         }
         Ok(config)
     }

@@ -119,7 +119,7 @@ impl VehicleState {
 
     pub(super) fn start(&mut self, initial: InitialState) -> Result<(), Rejection> {
         let seed = seed_of(&self.id, self.generation);
-        let filter = build_filter(&self.config.filter, &initial, seed).map_err(|e| {
+        let filter = build_filter(&self.config.filter_config(), &initial, seed).map_err(|e| {
             Rejection::new(
                 RejectCode::BadRequest,
                 format!("cannot start the filter: {e}"),
