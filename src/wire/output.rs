@@ -151,6 +151,31 @@ pub struct ImuDiagnosticsMsg {
     pub mag_dip_deg: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mag_offset: Option<[f64; 3]>,
+    /// `provisional` (the reading at the start: a magnet on the body would be in it) or `confirmed`
+    /// (a hard-iron fit over rotation about every axis found it), once there is a reference.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mag_reference: Option<String>,
+    /// Gyro and accelerometer samples at or beyond 98% of the range (saturated).
+    pub gyro_saturated: u64,
+    pub acc_saturated: u64,
+    /// Whether the magnetometer updated the heading within the last 10 s, and the seconds since it
+    /// last did (since the start without one): an unaided heading's variance grows with the gyro.
+    pub heading_aided: bool,
+    pub heading_unaided_s: f64,
+    /// The sensors' noise as measured at rest (0 until there was rest), in a datasheet's units.
+    pub measured: MeasuredNoiseMsg,
+}
+
+/// The sensors' noise measured at rest (`diagnostics.imu.measured`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredNoiseMsg {
+    pub gyro_noise_density_deg_s_sqrt_hz: f64,
+    pub acc_noise_density_ug_sqrt_hz: f64,
+    /// In the magnetometer's unit, 1σ per axis.
+    pub mag_noise: f64,
+    /// Seconds of rest measured.
+    pub rest_s: f64,
 }
 
 /// One sensor's gate counts.
@@ -308,6 +333,24 @@ impl From<&ImuDiagnostics> for ImuDiagnosticsMsg {
             mag_norm: d.field.map(|f| f.norm),
             mag_dip_deg: d.field.map(|f| f.dip_rad.to_degrees()),
             mag_offset: d.field.map(|f| [f.offset[0], f.offset[1], f.offset[2]]),
+            mag_reference: d.field.map(|f| {
+                if f.confirmed {
+                    "confirmed"
+                } else {
+                    "provisional"
+                }
+                .to_string()
+            }),
+            gyro_saturated: c.gyro_saturated,
+            acc_saturated: c.acc_saturated,
+            heading_aided: c.heading_unaided_s <= crate::ahrs::HEADING_AIDED_S,
+            heading_unaided_s: c.heading_unaided_s,
+            measured: MeasuredNoiseMsg {
+                gyro_noise_density_deg_s_sqrt_hz: d.measured.gyro_noise_density_deg_s_sqrt_hz,
+                acc_noise_density_ug_sqrt_hz: d.measured.acc_noise_density_ug_sqrt_hz,
+                mag_noise: d.measured.mag_noise,
+                rest_s: d.measured.rest_s,
+            },
         }
     }
 }

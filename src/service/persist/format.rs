@@ -573,6 +573,9 @@ saved!(AhrsCountsV5 for AhrsCounts {
     tilt_sigma_lp_rad: f64,
     gyro_saturated: u64,
     acc_saturated: u64,
+    heading_unaided_s: f64,
+    gaps: u64,
+    blind_s: f64,
 });
 saved!(GyroChannelV5 for GyroChannel {
     previous: Option<Vector3<f64>>,
@@ -580,6 +583,11 @@ saved!(GyroChannelV5 for GyroChannel {
     clipped: bool,
     run: u32,
     saturated: u64,
+    interval_s: f64,
+    rate_ms: f64,
+    change_ms: f64,
+    gaps: u64,
+    blind_s: f64,
 });
 
 #[derive(Serialize, Deserialize)]

@@ -22,6 +22,10 @@ interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attit
 * ``--mag-scale S``, ``--mag-offset X,Y,Z``: the magnetometer times S plus a body-fixed offset (other units, a
   magnet that moves with the body).
 * ``--start-in-motion``: drop every sample before the first ``movement`` sample (no opening rest).
+* ``--drop-batches P --batch N``: the samples in batches of N, each lost with probability P (what a lossy
+  link does to a sender's puts); ``--drop-burst T0,S``: every sample in ``[T0, T0 + S)`` lost (seconds from
+  the first sample). Lost samples are gone: the next one comes after a gap (its rate still covers only its
+  own interval).
 """
 
 from __future__ import annotations
@@ -99,6 +103,9 @@ def alter(
     mag_offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
     start_in_motion: bool = False,
     seed: int = 1,
+    drop_batches: float = 0.0,
+    batch: int = 40,
+    drop_bursts: tuple = (),
 ) -> dict:
     """The trial altered as the module documentation says (the alterations in that order)."""
     rng = np.random.default_rng(seed)
@@ -137,6 +144,19 @@ def alter(
     if clip is not None:
         out["gyr"] = np.clip(out["gyr"], -clip, clip)
     out["mag"] = out["mag"] * mag_scale + np.asarray(mag_offset, dtype=float)
+    if drop_batches > 0 or drop_bursts:
+        keep = np.ones(n, dtype=bool)
+        if drop_batches > 0:
+            lost = rng.uniform(size=(n + batch - 1) // batch) < drop_batches
+            keep &= ~np.repeat(lost, batch)[:n]
+        t_rel = out["t"] - out["t"][0]
+        for t0, span in drop_bursts:
+            keep &= ~((t_rel >= t0) & (t_rel < t0 + span))
+        keep[0] = True
+        out["lost"] = int(n - keep.sum())
+        for key in ("gyr", "acc", "mag", "opt_quat", "movement", "t"):
+            if out.get(key) is not None:
+                out[key] = out[key][keep]
     return out
 
 
@@ -172,13 +192,17 @@ def main() -> int:
     ap.add_argument("--mag-offset", default="0,0,0")
     ap.add_argument("--start-in-motion", action="store_true")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--drop-batches", type=float, default=0.0)
+    ap.add_argument("--batch", type=int, default=40)
+    ap.add_argument("--drop-burst", action="append", default=[], help="T0,SECONDS (repeatable)")
     args = ap.parse_args()
     trial = load_trial(args.trial, None)
     offset = tuple(float(x) for x in args.mag_offset.split(","))
     if len(offset) != 3:
         ap.error("--mag-offset takes X,Y,Z")
+    bursts = tuple(tuple(float(x) for x in b.split(",")) for b in args.drop_burst)
     out = alter(trial, args.rate, args.jitter, args.hold, args.mag_every, args.clip, args.mag_scale, offset,
-                args.start_in_motion, args.seed)
+                args.start_in_motion, args.seed, args.drop_batches, args.batch, bursts)
     write_csv(out, args.out)
     print(f"{args.out}: {len(out['t'])} samples, {out['rate_hz']:.2f} Hz")
     return 0

@@ -603,6 +603,7 @@ impl FieldChannel {
         mag: &Vector3<f64>,
         rate_rad_s: f64,
         up_sigma_rad: f64,
+        noise_norm: f64,
     ) -> HeadingObservation {
         if self.since_update_s + 1e-9 < c.interval_s {
             return HeadingObservation::NotDue;
@@ -626,7 +627,9 @@ impl FieldChannel {
         // a field of about δn·B along it and δd·B across it; a disturbance of no preferred direction
         // turns the horizontal part by as much again: about √(δn² + δd²)·B / B_h of heading.
         let deviation = if self.lp_ready {
-            let dn = (self.lp_norm - self.norm) / self.norm.max(1e-12);
+            // (Beyond what the low-passed readings' own noise makes of the norm: `noise_norm`, 1σ.)
+            let dn = (((self.lp_norm - self.norm).abs() - 2.5 * noise_norm).max(0.0))
+                / self.norm.max(1e-12);
             // (Less what the vertical the dip is measured against may be off by.)
             let dd = ((self.lp_dip - self.dip).abs() - 2.5 * up_sigma_rad).max(0.0);
             c.deviation_gain * (dn * dn + dd * dd).sqrt() / horizontal
@@ -757,7 +760,7 @@ mod tests {
             // The gyro frame is the reference frame here (a perfect gyro).
             let m = a * field(65.0) + offset;
             ch.update(&c, &m, &(a * UP), &UP, &a, w.norm(), 0.0, dt);
-            if let HeadingObservation::Rejected = ch.observation(&c, &m, 0.0, 0.0) {
+            if let HeadingObservation::Rejected = ch.observation(&c, &m, 0.0, 0.0, 0.0) {
                 rejected += 1;
             }
             if accepted_at.is_none() && ch.hard_iron_changes > 0 {
@@ -782,7 +785,7 @@ mod tests {
             ch.update(&c, &(a * field(65.0)), &(a * UP), &UP, &a, 0.0, 0.0, 0.01);
             assert!(!ch.disturbed());
             assert!(matches!(
-                ch.observation(&c, &(a * field(65.0)), 0.0, 0.0),
+                ch.observation(&c, &(a * field(65.0)), 0.0, 0.0, 0.0),
                 HeadingObservation::Use(..) | HeadingObservation::NotDue
             ));
         }
@@ -801,7 +804,7 @@ mod tests {
         }
         assert!(ch.disturbed());
         assert_eq!(
-            ch.observation(&c, &(a * field(65.0) * 1.3), 0.0, 0.0),
+            ch.observation(&c, &(a * field(65.0) * 1.3), 0.0, 0.0, 0.0),
             HeadingObservation::Rejected
         );
     }

@@ -16,6 +16,16 @@
 //!   1σ is `n · saturation_factor · range · Δt` (the excess is the same sign all along a run, so it
 //!   grows linearly, not as a random walk), and the accelerometer and magnetometer then pull the
 //!   estimate back at once.
+//! * **Gaps.** An interval longer than [`GAP_INTERVALS`] usual ones (a lost batch, a stalled link,
+//!   a sensor that skipped) is a gap ([`GyroChannel::gap`]). The body's rate is modelled as it has
+//!   been behaving: of the recent mean square `σ_ω²` and a time scale `τ_ω` measured from how much it
+//!   changes between samples (`τ_ω = σ_ω / σ_ω̇`: a rate that swings with period `P` has `P/2π`), and
+//!   reverting to rest (a body that moves about a place does not keep turning one way). Over a gap of
+//!   `T` the rates on both sides decay: the bridge turns by `(ω₀ + ω₁) τ_ω (1 − e^{−T/2τ_ω})` — the
+//!   mean of the two rates over a short gap, not the later rate held over a long one (a body that
+//!   shakes back and forth turns little in a second, however fast it shakes) — and the attitude
+//!   variance grows by what such a rate could have done meanwhile,
+//!   `gap_turn_factor² · 2 σ_ω² τ_ω (T − 2τ_ω (1 − e^{−T/2τ_ω}))` per axis.
 
 use nalgebra::Vector3;
 
@@ -32,6 +42,9 @@ pub struct GyroConfig {
     pub range_rad_s: f64,
     /// How far beyond the range a saturated sample's rate may be, as a fraction of the range.
     pub saturation_factor: f64,
+    /// How much of the rotation the body could make during a gap, at the rates seen around it, the
+    /// bridge may be off by.
+    pub gap_turn_factor: f64,
 }
 
 impl Default for GyroConfig {
@@ -40,6 +53,7 @@ impl Default for GyroConfig {
             change_factor: 0.5,
             range_rad_s: 0.0,
             saturation_factor: 0.25,
+            gap_turn_factor: 1.0,
         }
     }
 }
@@ -50,6 +64,7 @@ impl GyroConfig {
             (self.change_factor, "gyro.change_factor"),
             (self.range_rad_s, "gyro.range_rad_s"),
             (self.saturation_factor, "gyro.saturation_factor"),
+            (self.gap_turn_factor, "gyro.gap_turn_factor"),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
                 return Err(format!("{name} must be finite and non-negative, got {v}"));
@@ -57,6 +72,24 @@ impl GyroConfig {
         }
         Ok(())
     }
+}
+
+/// An interval longer than this many usual ones is a gap.
+pub const GAP_INTERVALS: f64 = 3.0;
+/// Time constant of the usual interval's and the recent rate statistics' running means, s.
+const RECENT_S: f64 = 1.0;
+/// The longest correlation time a rate is given, s.
+const MAX_RATE_CORRELATION_S: f64 = 2.0;
+
+/// A gap before a sample: how it is bridged and what it could hide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gap {
+    /// The time without samples, s (the interval less the sample's own usual one).
+    pub blind_s: f64,
+    /// The rate that bridges it (the mean of the rates on both sides), rad/s.
+    pub bridge_rad_s: Vector3<f64>,
+    /// The attitude variance per axis the bridge may be off by, rad².
+    pub variance_rad2: f64,
 }
 
 /// A sample is saturated from this fraction of the range on.
@@ -77,6 +110,15 @@ pub struct GyroChannel {
     /// Saturated samples in a row now, and in all.
     pub run: u32,
     pub saturated: u64,
+    /// The usual interval between samples (a running mean that leaves gaps out; 0 before the first),
+    /// the recent mean square of the rate and of the rate's change between samples, per axis,
+    /// (rad/s)².
+    pub interval_s: f64,
+    pub rate_ms: f64,
+    pub change_ms: f64,
+    /// Gaps, and the time without samples in them, s.
+    pub gaps: u64,
+    pub blind_s: f64,
 }
 
 impl GyroChannel {
@@ -89,6 +131,44 @@ impl GyroChannel {
         } else {
             0.0
         }
+    }
+
+    /// Whether the interval `dt_s` before sample `gyr` is a gap, and if so how to bridge it; counts
+    /// it. Also keeps the usual interval (called once per sample, before [`GyroChannel::step`]).
+    pub fn gap(&mut self, c: &GyroConfig, gyr: &Vector3<f64>, dt_s: f64) -> Option<Gap> {
+        if !(dt_s > 0.0 && dt_s.is_finite()) {
+            return None;
+        }
+        if self.interval_s <= 0.0 {
+            self.interval_s = dt_s;
+            return None;
+        }
+        if dt_s <= GAP_INTERVALS * self.interval_s {
+            let k = (dt_s / RECENT_S).min(1.0);
+            self.interval_s += k * (dt_s - self.interval_s);
+            return None;
+        }
+        let prev = self.previous?;
+        let blind = dt_s - self.interval_s;
+        // The rate's own time scale, σ_ω / σ_ω̇ (a rate that swings with period P has P/2π): how long
+        // it keeps its value before it turns.
+        let tau = if self.change_ms > 0.0 {
+            ((self.rate_ms / self.change_ms).sqrt() * self.interval_s)
+                .clamp(self.interval_s, MAX_RATE_CORRELATION_S)
+        } else {
+            MAX_RATE_CORRELATION_S
+        };
+        let decay = tau * (1.0 - (-blind / (2.0 * tau)).exp());
+        let bridge = (prev + gyr) * (decay / blind);
+        let variance =
+            c.gap_turn_factor.powi(2) * 2.0 * self.rate_ms * tau * (blind - 2.0 * decay).max(0.0);
+        self.gaps += 1;
+        self.blind_s += blind;
+        Some(Gap {
+            blind_s: blind,
+            bridge_rad_s: bridge,
+            variance_rad2: variance,
+        })
     }
 
     /// Takes sample `gyr` over an interval of `dt_s`; returns the attitude variance per axis (rad²)
@@ -118,6 +198,9 @@ impl GyroChannel {
         let change = self.previous.map_or(0.0, |p| (gyr - p).norm());
         self.previous = Some(*gyr);
         let dt = dt_s.max(0.0);
+        let k = (dt / RECENT_S).min(1.0);
+        self.rate_ms += k * (gyr.norm_squared() / 3.0 - self.rate_ms);
+        self.change_ms += k * (change * change / 3.0 - self.change_ms);
         let mut var = (c.change_factor * change * dt).powi(2);
         let range = self.range(c);
         if range > 0.0 && peak >= SATURATION_FRACTION * range {

@@ -4,11 +4,21 @@
 //! Coefficients by the bilinear transform with pre-warping, recomputed when the interval changes;
 //! direct form I (the last two inputs and outputs are the state, so a change of interval only changes
 //! the coefficients applied to them); started in the steady state of the first input (no start-up
-//! transient). Two filters that take samples of the same interval (the rest detector's gyro and
+//! transient). An interval much longer than the one the filter runs at (a gap in the samples) is
+//! crossed in steps of about the usual interval with the new input held ([`GAP_RATIO`]): the
+//! recursion's state holds samples at the usual spacing, and a single step with the long interval's
+//! coefficients applied to it rings for seconds; a gap of many time constants restarts the filter at
+//! the new input. Two filters that take samples of the same interval (the rest detector's gyro and
 //! accelerometer, the gravity channel's two time constants) step together in one pass of six lanes
 //! ([`Lowpass3::update_pair`]), with the same values as one after the other.
 
 use nalgebra::Vector3;
+
+/// An interval longer than this many of the filter's usual one is a gap, crossed in steps.
+pub const GAP_RATIO: f64 = 4.0;
+/// A gap longer than this many time constants restarts the filter at the new input (what it held
+/// has decayed to below 1e-4 of it).
+const RESTART_TAUS: f64 = 10.0;
 
 /// `[b₀, b₁, b₂, a₁, a₂]` of the filter for `τ` and the interval `dt`.
 fn coefficients(tau_s: f64, dt_s: f64) -> [f64; 5] {
@@ -84,6 +94,9 @@ impl Lowpass3 {
         if !(dt_s > 0.0 && dt_s < f64::INFINITY) {
             return Some(y[0].into());
         }
+        if self.dt_s > 0.0 && dt_s > GAP_RATIO * self.dt_s {
+            return self.cross_gap(x, dt_s);
+        }
         if (dt_s - self.dt_s).abs() > 1e-9 * dt_s || self.dt_s.is_nan() {
             self.c = coefficients(self.tau_s, dt_s);
             self.dt_s = dt_s;
@@ -95,6 +108,36 @@ impl Lowpass3 {
             return None;
         }
         self.shift(&x, &Vector3::from(out));
+        Some(out)
+    }
+
+    /// A gap of `dt_s` (more than [`GAP_RATIO`] usual intervals): steps of about the usual interval
+    /// with the input `x` held, or a restart at `x` after [`RESTART_TAUS`] time constants.
+    #[cold]
+    fn cross_gap(&mut self, x: &[f64; 3], dt_s: f64) -> Option<[f64; 3]> {
+        let usual = self.dt_s;
+        if dt_s > RESTART_TAUS * self.tau_s {
+            let v = Vector3::from(*x);
+            self.x = [v, v];
+            self.y = Some([v, v]);
+            return Some(*x);
+        }
+        let n = (dt_s / usual).ceil().max(1.0);
+        let step = dt_s / n;
+        self.c = coefficients(self.tau_s, step);
+        self.dt_s = step;
+        let v = Vector3::from(*x);
+        let mut out = [0.0; 3];
+        for _ in 0..n as usize {
+            out = self.recursion(&v);
+            if out[0] * 0.0 + out[1] * 0.0 + out[2] * 0.0 != 0.0 {
+                return None;
+            }
+            self.shift(&v, &Vector3::from(out));
+        }
+        // The filter goes on at its usual interval.
+        self.c = coefficients(self.tau_s, usual);
+        self.dt_s = usual;
         Some(out)
     }
 

@@ -47,7 +47,7 @@ pub use config::{
 use field::{FieldChannel, HeadingObservation};
 use gains::{GainCache, IntervalGains};
 use gravity::{GravityChannel, TiltObservation};
-use gyro::SATURATION_FRACTION;
+use gyro::{Gap, SATURATION_FRACTION};
 pub use gyro::{GyroChannel, GyroConfig};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
@@ -76,7 +76,25 @@ pub struct AhrsCounts {
     /// Gyro samples at or beyond 98% of the range (saturated), and accelerometer samples.
     pub gyro_saturated: u64,
     pub acc_saturated: u64,
+    /// Seconds since the last heading update (since the start when there was none): while it grows
+    /// nothing but the gyro holds the heading, and its variance grows with the gyro's model.
+    pub heading_unaided_s: f64,
+    /// Gaps in the samples (an interval over three usual ones) and the time without samples in
+    /// them, s.
+    pub gaps: u64,
+    pub blind_s: f64,
 }
+
+/// The part of a sample's interval its estimate's instant is uncertain by (1σ): the rate stands for
+/// the interval, its mean or its end.
+const INTERVAL_INSTANT_FRACTION: f64 = 0.5;
+
+/// A gap that may hide more than this rotation (1σ², 1°) leaves the hard-iron fit in a frame that
+/// has turned wrongly: it forgets what it held.
+const FIT_FORGET_RAD2: f64 = 3.0e-4;
+
+/// A heading updated by the magnetometer within this long is aided (`diagnostics.imu.heading_aided`).
+pub const HEADING_AIDED_S: f64 = 10.0;
 
 /// The pipeline's state for one vehicle.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,6 +120,9 @@ pub struct Ahrs {
     counts: AhrsCounts,
     /// The interval's gains, remembered by interval (not state: the same bits as computed afresh).
     gains: GainCache,
+    /// The gap the last sample closed, until the vehicle takes it ([`Ahrs::take_gap`]; not state:
+    /// the vehicle reports it at once).
+    last_gap: Option<Gap>,
 }
 
 /// What [`Ahrs::preprocess`] hands the step.
@@ -139,6 +160,7 @@ impl Ahrs {
             heading_inconsistent_s: 0.0,
             counts: AhrsCounts::default(),
             gains: GainCache::default(),
+            last_gap: None,
         }
     }
 
@@ -155,6 +177,11 @@ impl Ahrs {
 
     pub fn counts(&self) -> &AhrsCounts {
         &self.counts
+    }
+
+    /// The gap the last sample closed, once.
+    pub fn take_gap(&mut self) -> Option<Gap> {
+        self.last_gap.take()
     }
 
     /// The sensor's datasheet values the pipeline uses.
@@ -200,17 +227,24 @@ impl Ahrs {
         self.field.as_ref().map(|f| (f.reference(), f.offset()))
     }
 
-    /// The field channel's reference norm and dip (rad) and its offset (cheaper than
-    /// [`Ahrs::field_reference`]: no direction).
-    pub fn field_norm_dip_offset(&self) -> Option<(f64, f64, Vector3<f64>)> {
+    /// The field channel's reference norm and dip (rad), its offset (cheaper than
+    /// [`Ahrs::field_reference`]: no direction) and whether rotation has confirmed it.
+    pub fn field_norm_dip_offset(&self) -> Option<(f64, f64, Vector3<f64>, bool)> {
         self.field.as_ref().map(|f| {
             let (norm, dip) = f.norm_dip();
-            (norm, dip, f.offset())
+            (norm, dip, f.offset(), f.confirmed)
         })
     }
 
     /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
-    fn preprocess(&mut self, c: &AhrsConfig, s: &ImuSample, bias: &Vector3<f64>) -> Preprocessed {
+    /// `gap`: the gap before the sample, bridged in the gyro frame as in the filter.
+    fn preprocess(
+        &mut self,
+        c: &AhrsConfig,
+        s: &ImuSample,
+        bias: &Vector3<f64>,
+        gap: Option<&Gap>,
+    ) -> Preprocessed {
         let dt = match self.t_s {
             Some(t) => (s.t_s - t).max(0.0),
             None => 0.0,
@@ -218,9 +252,14 @@ impl Ahrs {
         self.t_s = Some(s.t_s);
         self.counts.samples += 1;
         if dt > 0.0 {
-            self.q_gyro = self
-                .q_gyro
-                .propagate(&(s.gyr_rad_s - bias), dt)
+            let mut q = self.q_gyro;
+            let mut own = dt;
+            if let Some(g) = gap {
+                q = q.propagate(&(g.bridge_rad_s - bias), g.blind_s);
+                own = dt - g.blind_s;
+            }
+            self.q_gyro = q
+                .propagate(&(s.gyr_rad_s - bias), own)
                 .normalized()
                 .unwrap_or(self.q_gyro);
         }
@@ -275,7 +314,7 @@ impl Ahrs {
         if self.phase == Phase::Running {
             *self = Ahrs::new(c);
         }
-        self.preprocess(c, s, &Vector3::zeros());
+        self.preprocess(c, s, &Vector3::zeros(), None);
         let Phase::Aligning {
             t0_s,
             acc,
@@ -381,17 +420,42 @@ impl Ahrs {
         // accelerometer and the hard-iron fit are kept in.
         let limit = c.rest.bias_limit_rad_s;
         let bias = filter.bias_rad_s().map(|b| b.clamp(-limit, limit));
+        let gyro_config = self.gyro_config(c);
+        // A gap before this sample: bridged by the rates on both sides, its variance what it hid.
+        let gap = self.gyro.gap(&gyro_config, &s.gyr_rad_s, s.t_s - t_prev);
         let Preprocessed {
             dt,
             a_gyro,
             up_gyro,
             gains,
-        } = self.preprocess(c, s, &bias);
+        } = self.preprocess(c, s, &bias, gap.as_ref());
         let omega = s.gyr_rad_s - bias;
-        self.published = omega * omega.transpose() * c.timing_sigma_s.powi(2);
+        // A sample stands for its whole interval: the instant its estimate describes is uncertain by
+        // the sender's time stamp and by a part of the interval (the rate may be the interval's mean
+        // or its end's), a rotation about the turn axis that a low rate makes large.
+        let instant =
+            c.timing_sigma_s.powi(2) + (INTERVAL_INSTANT_FRACTION * self.gyro.interval_s).powi(2);
+        self.published = omega * omega.transpose() * instant;
+        self.counts.heading_unaided_s += dt;
+        let mut t_from = t_prev;
+        if let Some(g) = &gap {
+            // The gyro frame crossed the gap on the bridge too: what the low-pass and the fit hold
+            // from before it is turned against what comes after by as much as the bridge is off.
+            self.gravity.frame_var += g.variance_rad2;
+            if g.variance_rad2 > FIT_FORGET_RAD2 {
+                if let Some(f) = self.field.as_mut() {
+                    f.forget_fit(&c.mag);
+                }
+            }
+            self.counts.gaps = self.gyro.gaps;
+            self.counts.blind_s = self.gyro.blind_s;
+            self.last_gap = Some(*g);
+            t_from = t_prev + g.blind_s;
+            filter.gyro_interval_with(t_prev, &g.bridge_rad_s, t_from, g.variance_rad2)?;
+        }
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
-        let hidden = self.gyro.step(&self.gyro_config(c), &s.gyr_rad_s, dt);
+        let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, s.t_s - t_from);
         if self.gyro.run > 0 {
             // The gyro frame turned by less than the body: what the low-pass and the hard-iron fit
             // hold from before is turned wrongly against what comes after.
@@ -403,7 +467,7 @@ impl Ahrs {
             }
         }
         self.counts.gyro_saturated = self.gyro.saturated;
-        filter.gyro_interval_with(t_prev, &s.gyr_rad_s, s.t_s, hidden)?;
+        filter.gyro_interval_with(t_from, &s.gyr_rad_s, s.t_s, hidden)?;
         let at_rest = self.counts.at_rest;
         // Bias at rest.
         self.since_bias_s += dt;
@@ -476,11 +540,46 @@ impl Ahrs {
             self.counts.mag_disturbed = field.disturbed();
             self.counts.mag_new_fields = field.new_fields;
             self.counts.mag_hard_iron_changes = field.hard_iron_changes;
-            match field.observation(&c.mag, &mag, omega.norm(), self.gravity.frame_var.sqrt()) {
+            // The magnetometer's noise (the datasheet's, else the measured) as it remains in the
+            // channel's low-passed norm (a first-order low-pass keeps Δt/2τ of a white variance).
+            let mag_noise = if self.sheet.mag_noise > 0.0 {
+                self.sheet.mag_noise
+            } else {
+                self.noise.measured().mag_noise
+            };
+            let noise_norm = mag_noise * (dt / (2.0 * c.mag.lowpass_s.max(1e-9))).min(1.0).sqrt();
+            match field.observation(
+                &c.mag,
+                &mag,
+                omega.norm(),
+                self.gravity.frame_var.sqrt(),
+                noise_norm,
+            ) {
                 HeadingObservation::NotDue => {}
                 HeadingObservation::Rejected => self.counts.mag_rejected += 1,
-                HeadingObservation::Use(o, sigma_psi) => {
+                HeadingObservation::Use(mut o, sigma_psi) => {
                     let prior = filter.estimate();
+                    // The heading is read against the estimate's vertical: a tilt error δ turns it
+                    // by about δ tan(dip). The filter's own tilt variance enters the reading's σ, so
+                    // a heading read while the tilt is unsure (a start, a gap, a saturated gyro) is
+                    // weighed as such, not as a clean one.
+                    let a = prior.q.attitude_matrix();
+                    let p: Matrix3<f64> = prior.covariance.fixed_view::<3, 3>(0, 0).into_owned();
+                    let pe = a.transpose() * p * a;
+                    let tilt_var = Matrix2::new(pe[(0, 0)], pe[(0, 1)], pe[(1, 0)], pe[(1, 1)])
+                        .symmetric_eigenvalues()
+                        .max()
+                        .max(0.0);
+                    let dip = field.norm_dip().1;
+                    let sigma_psi = {
+                        let widened = (sigma_psi * sigma_psi
+                            + tilt_var * dip.tan().powi(2).min(100.0))
+                        .sqrt();
+                        if sigma_psi > 0.0 {
+                            o.sigma *= widened / sigma_psi;
+                        }
+                        widened
+                    };
                     // Consistency with the reading's own heading σ (not the one that spreads its
                     // information over the correlation time).
                     let nis = heading_nis(&prior, &o, sigma_psi);
@@ -491,6 +590,7 @@ impl Ahrs {
                     };
                     update(filter, s.t_s, o)?;
                     self.counts.heading_updates += 1;
+                    self.counts.heading_unaided_s = 0.0;
                     let post = filter.estimate();
                     if self.heading_inconsistent_s >= c.recovery.after_s {
                         self.heading_inconsistent_s = 0.0;

@@ -89,6 +89,7 @@ impl Ahrs {
             published: s.published,
             tilt_inconsistent_s: s.tilt_inconsistent_s,
             heading_inconsistent_s: s.heading_inconsistent_s,
+            last_gap: None,
             counts: s.counts,
             gains: Default::default(),
         })

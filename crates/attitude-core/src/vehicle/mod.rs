@@ -250,11 +250,13 @@ fn imu_diagnostics(a: &Ahrs) -> ImuDiagnostics {
         counts: a.counts().clone(),
         field: a
             .field_norm_dip_offset()
-            .map(|(norm, dip_rad, offset)| FieldReference {
+            .map(|(norm, dip_rad, offset, confirmed)| FieldReference {
                 norm,
                 dip_rad,
                 offset,
+                confirmed,
             }),
+        measured: a.measured_noise(),
     }
 }
 

@@ -1,7 +1,7 @@
 //! What a vehicle hands out, in domain terms: a published estimate with the vehicle's own diagnostics,
 //! and the outcome of a reset. The wire (`crate::wire`) turns them into messages, once, at the edge.
 
-use crate::ahrs::AhrsCounts;
+use crate::ahrs::{AhrsCounts, MeasuredNoise};
 use crate::filters::{Estimate, FilterSpec};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -26,6 +26,8 @@ pub struct FieldReference {
     pub norm: f64,
     pub dip_rad: f64,
     pub offset: Vector3<f64>,
+    /// Confirmed by rotation (a hard-iron fit found it); else the reading of the start.
+    pub confirmed: bool,
 }
 
 /// What the raw-IMU pipeline has done and sees now.
@@ -34,6 +36,8 @@ pub struct ImuDiagnostics {
     pub counts: AhrsCounts,
     /// Once there is one.
     pub field: Option<FieldReference>,
+    /// The sensors' noise measured at rest.
+    pub measured: MeasuredNoise,
 }
 
 /// An estimate as the vehicle publishes it.
