@@ -105,7 +105,8 @@ class Node:
             if callback is not None:
                 callback(m)
 
-        self.node.create_subscription(msg_type, topic, on_msg, qos)
+        #: The rclpy Subscription just made (its get_publisher_count() says whether discovery matched it).
+        self.last_subscription = self.node.create_subscription(msg_type, topic, on_msg, qos)
         return got
 
     def close(self) -> None:
@@ -154,7 +155,7 @@ def _drive(args) -> None:
     imu = node.publisher(Imu, f"/{v}/imu/data_raw", RELIABLE_10)
     mag = node.publisher(MagneticField, f"/{v}/imu/mag", RELIABLE_10)
     out = node.subscribe(Imu, f"/{v}/imu/data", RELIABLE_ALL)
-    sub = node.node.subscriptions[-1]
+    sub = node.last_subscription
     try:
         if not wait_for(
             lambda: imu.get_subscription_count() > 0 and mag.get_subscription_count() > 0 and sub.get_publisher_count() > 0,

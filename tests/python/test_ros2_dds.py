@@ -49,14 +49,18 @@ ALIGNING = 30
 
 @pytest.fixture(scope="module")
 def dds_service(tmp_path_factory):
-    """`attitude-service serve --config config/ros2-dds.json5` (the preset as shipped), on a free zenoh port and
-    this run's ROS domain; yields (zenoh endpoint, log path, a probe rclpy node)."""
+    """`attitude-service serve --config config/ros2-dds.json5` (the preset as shipped, with the reset service on), on
+    a free zenoh port and this run's ROS domain; yields (zenoh endpoint, log path, a probe rclpy node)."""
     logdir = tmp_path_factory.mktemp("ros2dds")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     log = open(logdir / "service.log", "wb")
     env = dict(os.environ, RUST_LOG=os.environ.get("RUST_LOG", "warn"))
+    # The preset as shipped, extended (as a user would) by the reset service, which is off by default.
+    config = logdir / "ros2-dds-reset.json5"
+    preset = ROOT / "config" / "ros2-dds.json5"
+    config.write_text(json.dumps({"extends": str(preset), "service": {"ros2": {"reset_service": "imu/reset"}}}))
     proc = subprocess.Popen(
-        [str(BIN), "serve", "--config", str(ROOT / "config" / "ros2-dds.json5"), "--listen", endpoint],
+        [str(BIN), "serve", "--config", str(config), "--listen", endpoint],
         stdout=log,
         stderr=subprocess.STDOUT,
         env=env,
@@ -95,7 +99,7 @@ class Driver:
         self.imu = self.node.publisher(Imu, f"/{vehicle}/imu/data_raw", qos)
         self.mag = self.node.publisher(MagneticField, f"/{vehicle}/imu/mag", qos)
         self.out = self.node.subscribe(Imu, f"/{vehicle}/imu/data", rcl.RELIABLE_ALL)
-        self.sub = self.node.node.subscriptions[-1]
+        self.sub = self.node.last_subscription
 
     def matched(self) -> bool:
         """Discovery done both ways: the service reads both inputs, and its output reaches us."""
@@ -125,9 +129,15 @@ def drive(drivers: dict[str, Driver], streams: dict, t0: dict, lo: int = 0, chun
         for v, d in drivers.items():
             rcl.wait_for(lambda d=d: len(d.out) >= start - lo - window, 30, interval=0.002)
     for v, d in drivers.items():
-        want = len(streams[v]["gyr"]) - lo - (ALIGNING if lo == 0 else 0)
+        # Every sample but an alignment's has its orientation; then wait until nothing more comes (a duplicate
+        # would).
+        want = len(streams[v]["gyr"]) - lo - ALIGNING
         rcl.wait_for(lambda d=d, want=want: len(d.out) >= want, 30)
-        time.sleep(0.2)  # (anything more would be a duplicate)
+        while True:
+            n_now = len(d.out)
+            time.sleep(0.3)
+            if len(d.out) == n_now:
+                break
 
 
 def scores_of(s: dict, t0: float, out: list) -> tuple[dict, np.ndarray]:
@@ -141,12 +151,12 @@ def scores_of(s: dict, t0: float, out: list) -> tuple[dict, np.ndarray]:
     return broad_scores(q, cov, s["opt_quat"], s["movement"]), q
 
 
-def json_path(endpoint: str, s: dict) -> dict:
+def json_path(endpoint: str, s: dict, tag: str) -> dict:
     """The same samples on P/V/imu (the JSON path) to the same service, scored the same way."""
     client = AttitudeClient(endpoint, prefix="attitude")
     try:
         args = argparse.Namespace(
-            tag=f"{os.getpid()}", vehicle_prefix="json", batch=100, window=2000, timeout=60.0, particles=500,
+            tag=f"{tag}-{os.getpid()}", vehicle_prefix="json", batch=100, window=2000, timeout=60.0, particles=500,
             no_reset=True, copies=1, pause=0.0,
         )
         r = replay(client, s, ["mekf"], args)["mekf"]
@@ -197,13 +207,15 @@ def test_broad_round_trip_three_namespaces(dds_service):
         report[v] = r
         assert r["scored"] > 1500, r
         assert r["total_rmse_deg"] < 3.0 and r["inclination_rmse_deg"] < 1.5, (v, r)
-        assert r["tilt_in99"] > 0.9 and 0.5 < r["tilt_nees_median"] < 3.0, (v, r)
+        # Honest: the tilt error inside its 99% bound 99% of the time (98% allowed), its NEES median near 1.
+        assert r["tilt_in99"] > 0.98 and 0.5 < r["tilt_nees_median"] < 2.0, (v, r)
+        r["orientations"], r["sent"], r["first"] = len(out), n, idx[0]
     # The same samples at another epoch, and another QoS, give the same orientation.
     assert abs(report["r1"]["total_rmse_deg"] - report["r3"]["total_rmse_deg"]) < 0.01, report
     # The JSON path and VQF on the same samples.
     for v in ("r1", "r2"):
         s = streams[v]
-        js = json_path(endpoint, s)
+        js = json_path(endpoint, s, v)
         vqf = broad_scores(run_vqf(s), None, s["opt_quat"], s["movement"])
         report[v]["json"] = js
         report[v]["vqf"] = vqf
@@ -211,7 +223,8 @@ def test_broad_round_trip_three_namespaces(dds_service):
             assert abs(report[v][k] - js[k]) < 0.01, (v, k, report[v][k], js[k])
     print(f"\nrclpy over DDS, three namespaces at once ({SAMPLES} samples each, {seconds:.1f} s):")
     for v, r in report.items():
-        line = f"  {v}: DDS total {r['total_rmse_deg']:.3f}° incl {r['inclination_rmse_deg']:.3f}° " \
+        line = f"  {v} ({qos[v].reliability.name.lower()}): {r['orientations']} orientations for {r['sent']} samples " \
+               f"(the first at sample {r['first']}, after the alignment), DDS total {r['total_rmse_deg']:.3f}° incl {r['inclination_rmse_deg']:.3f}° " \
                f"heading {r['heading_rmse_deg']:.3f}° tilt_in99 {r['tilt_in99']:.4f} nees_med {r['tilt_nees_median']:.2f}"
         if "json" in r:
             line += f" | JSON total {r['json']['total_rmse_deg']:.3f}° tilt_in99 {r['json']['tilt_in99']:.4f}" \
@@ -224,8 +237,9 @@ def test_graph_as_rclpy_sees_it(dds_service):
     d = Driver("g1")
     try:
         assert rcl.wait_for(d.matched, 20), logpath.read_text()
-        d.send({"t": [0.01 * k for k in range(60)], "gyr": [[0, 0, 0]] * 60, "acc": [[0, 0, 9.81]] * 60,
-                "mag": [[20.0, 0, -40.0]] * 60}, 0.0, 0, 60)
+        still = {"t": np.arange(60) * 0.01, "gyr": np.zeros((60, 3)), "acc": np.tile([0.0, 0.0, 9.81], (60, 1)),
+                 "mag": np.tile([20.0, 0.0, -40.0], (60, 1))}
+        d.send(still, 0.0, 0, 60)
         assert rcl.wait_for(lambda: len(d.out) > 10, 10)
         node = probe.node
         want_pubs = {("/g1/imu/data", "sensor_msgs/msg/Imu"), ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")}
@@ -240,8 +254,9 @@ def test_graph_as_rclpy_sees_it(dds_service):
             by_node(node.get_subscriber_names_and_types_by_node)
         topics = dict(node.get_topic_names_and_types())
         assert topics["/g1/imu/data"] == ["sensor_msgs/msg/Imu"]
-        info = [i for i in node.get_publishers_info_by_topic("/g1/imu/data") if i.node_name == "attitude_service"]
-        assert len(info) == 1 and info[0].node_namespace == "/", info
+        # The writer as rclpy sees it (its node is not resolved by endpoint: docs/ros2.md, "Known quirks").
+        info = node.get_publishers_info_by_topic("/g1/imu/data")
+        assert len(info) == 1, [(i.node_name, i.node_namespace) for i in info]
         assert info[0].qos_profile.reliability == rcl.ReliabilityPolicy.RELIABLE, info[0].qos_profile
         assert info[0].topic_type == "sensor_msgs/msg/Imu"
     finally:
@@ -305,7 +320,7 @@ def test_latency_against_an_rclpy_echo(dds_service):
     sent: dict[tuple[int, int], float] = {}
     echo_pub = d.node.publisher(Imu, "/echo/in", rcl.RELIABLE_10)
     echo_out = d.node.subscribe(Imu, "/echo/out", rcl.RELIABLE_ALL)
-    echo_sub = d.node.node.subscriptions[-1]
+    echo_sub = d.node.last_subscription
     try:
         ok = rcl.wait_for(
             lambda: d.matched() and echo_pub.get_subscription_count() > 0 and echo_sub.get_publisher_count() > 0, 30
@@ -345,46 +360,69 @@ def test_latency_against_an_rclpy_echo(dds_service):
 
 
 def test_reset_service_and_diagnostics(dds_service):
-    """/V/imu/reset (std_srvs/srv/Trigger) from an rclpy client: the vehicle starts afresh, so a bag played again
-    from its start (its stamps back at the beginning) is taken; /diagnostics from an rclpy subscription."""
+    """The reset service (std_srvs/srv/Trigger on /V/imu/reset): in rclpy's graph once the vehicle exists; called
+    with the request rclpy serialises, as the bridge hands it on from a (Cyclone DDS) client, it resets the vehicle,
+    which aligns again on the next samples and tracks. (A Fast DDS client cannot call it through the bridge:
+    docs/ros2.md.) Samples from the past are refused, reset or not. /diagnostics read by an rclpy subscription."""
+    import zenoh
+    from rclpy.serialization import deserialize_message, serialize_message
     from std_srvs.srv import Trigger
 
-    _, logpath, probe = dds_service
-    s = excerpt("16_undisturbed_fast_translation_B_excerpt", 600)
+    endpoint, logpath, probe = dds_service
+    s = excerpt("16_undisturbed_fast_translation_B_excerpt", 1200)
+    first = {k: s[k][:600] for k in ("t", "gyr", "acc", "mag")}
     d = Driver("bag1")
     diag = d.node.subscribe(DiagnosticArray, "/diagnostics", rcl.RELIABLE_10)
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"client"')
+    conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    session = zenoh.open(conf)
+
+    def call(vehicle: str):
+        replies = list(session.get(f"{vehicle}/imu/reset", payload=serialize_message(Trigger.Request()), timeout=15))
+        assert len(replies) == 1 and replies[0].ok is not None, replies
+        return deserialize_message(replies[0].ok.payload.to_bytes(), Trigger.Response)
+
     try:
         assert rcl.wait_for(d.matched, 20), logpath.read_text()
-        drive({"bag1": d}, {"bag1": s}, {"bag1": 0.0})
-        assert len(d.out) == 600 - ALIGNING or len(d.out) >= 600 - ALIGNING - 1, len(d.out)
-        # The service is in the graph as a server once the vehicle exists.
+        drive({"bag1": d}, {"bag1": first}, {"bag1": 0.0})
+        assert len(d.out) >= 600 - ALIGNING, len(d.out)
+        # The service is in the graph once the vehicle exists (the bridge's service server endpoints).
         assert rcl.wait_for(
             lambda: ("/bag1/imu/reset", ["std_srvs/srv/Trigger"]) in probe.node.get_service_names_and_types(), 10
         ), probe.node.get_service_names_and_types()
-        # The bag again from its start: refused (its time went back) until the reset.
+        # Samples from the past (a bag played again from its start) are refused.
         n_before = len(d.out)
         d.send(s, 0.0, 0, 100)
         time.sleep(1.0)
-        assert len(d.out) == n_before, "samples from the past were taken without a reset"
-        cli = d.node.node.create_client(Trigger, "/bag1/imu/reset")
-        assert cli.wait_for_service(timeout_sec=10)
-        fut = cli.call_async(Trigger.Request())
-        assert rcl.wait_for(fut.done, 15), "no response from the reset service"
-        r = fut.result()
-        assert r.success and "bag1: reset" in r.message, r
-        # The bag from its start again: every sample after the alignment.
+        assert len(d.out) == n_before, "samples from the past were taken"
+        r = call("bag1")
+        assert r.success and "bag1: reset" in r.message and "initializing" in r.message, r
+        # The next samples: aligned again (no orientation for the alignment's samples), then every one.
         d.out.clear()
-        drive({"bag1": d}, {"bag1": s}, {"bag1": 0.0})
+        drive({"bag1": d}, {"bag1": s}, {"bag1": 0.0}, lo=600)
         idx = [index_of(s, 0.0, m) for _, m in d.out]
-        assert idx == list(range(idx[0], 600)) and idx[0] <= ALIGNING, idx[:5]
-        # /diagnostics: one status per vehicle, this one's OK while it tracks.
-        assert rcl.wait_for(lambda: any(
-            st.hardware_id == "bag1" for _, a in diag for st in a.status), 10), len(diag)
-        st = [st for _, a in diag for st in a.status if st.hardware_id == "bag1"][-1]
-        assert st.name == "attitude_service: bag1" and st.level == b"\x00" or st.level == 0, st
-        values = {kv.key: kv.value for kv in st.values}
-        assert values["filter"] == "mekf" and int(values["received"]) >= 1200, values
+        client = AttitudeClient(endpoint, prefix="attitude")
+        try:
+            row = next(r for r in client.vehicles(timeout=5) if r["vehicle"] == "bag1")
+        finally:
+            client.close()
+        assert idx and idx == list(range(idx[0], 1200)) and 600 + ALIGNING - 5 <= idx[0] <= 600 + ALIGNING, (
+            idx[:5], json.dumps(row))
+        # /diagnostics: one status per vehicle, this one OK while it tracks, with its counts once all is in
+        # (the 100 samples from the past refused, with their code).
+        def status():
+            rows = [st for _, a in list(diag) for st in a.status if st.hardware_id == "bag1"]
+            return ({kv.key: kv.value for kv in rows[-1].values}, rows[-1]) if rows else ({}, None)
+
+        assert rcl.wait_for(lambda: status()[0].get("received") == "1300", 10), status()
+        values, st = status()
+        assert st.name == "attitude_service: bag1" and st.level in (0, b"\x00") and st.message == "tracking", st
+        assert values["filter"] == "mekf" and values["state"] == "tracking" and values["rejected"] == "100", values
+        assert sum(int(v) for k, v in values.items() if k.startswith("rejected.")) == 100, values
     finally:
+        session.close()
         d.close()
 
 

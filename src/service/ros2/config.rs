@@ -96,7 +96,7 @@ impl Default for RawRos2 {
             node_namespace: "/".into(),
             vehicles: Vec::new(),
             diagnostics_period_s: 1.0,
-            reset_service: "imu/reset".into(),
+            reset_service: String::new(),
         }
     }
 }

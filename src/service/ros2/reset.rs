@@ -1,4 +1,6 @@
-//! The reset as a ROS 2 service (`service.ros2.reset_service`, `/<namespace>/V/imu/reset` by default):
+//! The reset as a ROS 2 service (`service.ros2.reset_service`, e.g. `/<namespace>/V/imu/reset`; off by
+//! default: a Fast DDS client cannot call it through the bridge, which reads the request's id from the
+//! payload as CycloneDDS writes it, where Fast DDS does not put it):
 //! `std_srvs/srv/Trigger`, the service type ROS 2 drivers and filters use for a reset without
 //! arguments. A call is `P/V/reset` with no fields (the vehicle's configured filter starts afresh, its
 //! time from the next sample: a bag played again from its start is taken); the response's `success` and
