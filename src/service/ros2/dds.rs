@@ -80,9 +80,7 @@ fn check_types(dds: &Map<String, Value>) -> Result<(), String> {
             "queries_timeout" => value.as_object().is_some_and(|q| {
                 q.iter().all(|(k, v)| match k.as_str() {
                     "default" => v.is_number(),
-                    "actions" => v
-                        .as_object()
-                        .is_some_and(|a| a.values().all(|v| strings(v))),
+                    "actions" => v.as_object().is_some_and(|a| a.values().all(strings)),
                     _ => strings(v),
                 })
             }),
