@@ -30,10 +30,12 @@ import numpy as np
 import pytest
 
 DOMAIN = 40 + os.getpid() % 160
-os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+# The environment of this module's processes (the service, the drivers, the echo, the quick start). Not set in
+# this process's own: the rest of the suite runs services whose domain would follow ROS_DOMAIN_ID (the rclpy nodes
+# here are given theirs, and LOCALHOST discovery by rclpy_peer).
+ROS_ENV = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 
-import rclpy_peer as rcl  # noqa: E402  (after the environment above: rclpy reads it)
+import rclpy_peer as rcl  # noqa: E402
 from attitude_client import AttitudeClient  # noqa: E402
 from attitude_client.replay import broad_scores, replay, run_vqf  # noqa: E402
 from conftest import BIN, ROOT, free_port  # noqa: E402
@@ -54,7 +56,7 @@ def dds_service(tmp_path_factory):
     logdir = tmp_path_factory.mktemp("ros2dds")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     log = open(logdir / "service.log", "wb")
-    env = dict(os.environ, RUST_LOG=os.environ.get("RUST_LOG", "warn"))
+    env = dict(ROS_ENV, RUST_LOG=os.environ.get("RUST_LOG", "warn"))
     # The preset as shipped, extended (as a user would) by the reset service, which is off by default.
     config = logdir / "ros2-dds-reset.json5"
     preset = ROOT / "config" / "ros2-dds.json5"
@@ -293,7 +295,7 @@ def test_a_late_node_and_a_restarting_one(dds_service):
         [sys.executable, str(ROOT / "tests" / "python" / "rclpy_peer.py"), "drive", "--domain", str(DOMAIN),
          "--vehicle", "restart1", "--trial", str(ROOT / "tests/data/broad/16_undisturbed_fast_translation_B_excerpt.hdf5"),
          "--from", str(half), "--to", "3000", "--out", str(out_file)],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True, text=True, timeout=120, env=ROS_ENV,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     after = json.loads(out_file.read_text())
@@ -314,7 +316,7 @@ def test_latency_against_an_rclpy_echo(dds_service):
     _, logpath, _ = dds_service
     echo = subprocess.Popen(
         [sys.executable, str(ROOT / "tests" / "python" / "rclpy_peer.py"), "echo", "--domain", str(DOMAIN)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=ROS_ENV,
     )
     d = Driver("lat1")
     sent: dict[tuple[int, int], float] = {}
@@ -434,7 +436,7 @@ def test_quickstart_of_docs_ros2(dds_service):
     proc = subprocess.run(
         [sys.executable, str(ROOT / "clients" / "ros2" / "imu_quickstart.py"), "--vehicle", "qs1", "--seconds", "6",
          "--roll", "10", "--pitch", "-5", "--yaw", "30"],
-        capture_output=True, text=True, timeout=60,
+        capture_output=True, text=True, timeout=60, env=ROS_ENV,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     rows = re.findall(r"roll\s+(\S+)° pitch\s+(\S+)° yaw\s+(\S+)°\s+1σ (\S+)° (\S+)° (\S+)°", proc.stdout)
