@@ -4,7 +4,8 @@
 #   bash scripts/python-tests.sh [pytest args...]
 #
 # Creates .venv at the repository root when missing, installs the pinned Python packages into it
-# (from PyPI), builds the release binary only when it is missing, and runs pytest with the venv's
+# (from PyPI; ROS 2 Kilted's rclpy with Fast DDS among them), builds the release binary (with the
+# `dds` feature, which tests/python/test_ros2_dds.py needs) only when it is missing, and runs pytest with the venv's
 # Python. Exits with pytest's exit code. Needs only python3 (with venv) on a fresh machine, plus cargo
 # when the binary has to be built.
 set -euo pipefail
@@ -44,6 +45,12 @@ PACKAGES=(
   "GitPython==3.2.1"
   "json5==0.17.3"
   "tqdm==4.70.1"
+  # Real ROS 2 (Kilted: rclpy on Fast DDS) for the service on DDS (tests/python/test_ros2_dds.py).
+  "ros-kilted-rclpy==9.1.2"
+  "ros-kilted-rmw-fastrtps-cpp==9.3.3"
+  "ros-kilted-sensor-msgs==5.5.1"
+  "ros-kilted-diagnostic-msgs==5.5.1"
+  "ros-kilted-std-srvs==5.5.1"
 )
 
 if [[ ! -x "$PY" ]]; then
@@ -91,8 +98,9 @@ fi
 
 BIN="$ROOT/target/release/attitude-service"
 if [[ ! -x "$BIN" ]]; then
-  echo "python-tests: $BIN is missing; building it" >&2
-  cargo build --release --locked
+  echo "python-tests: $BIN is missing; building it (with the DDS plugin: --features dds)" >&2
+  bash "$ROOT/scripts/install-build-deps.sh"
+  cargo build --release --locked --features dds
 fi
 
 # The zenoh router of the fleet tests (tests/python/test_fleet.py), built once into a cache.

@@ -2,10 +2,12 @@
 # Runs every test of attitude-service on a fresh machine (what .ci/run calls):
 #   1. formatting;
 #   2. the Rust unit, property, integration and loopback-zenoh tests, and the benchmarks in test mode,
-#      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all);
+#      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all, the
+#      release binary included);
 #   3. the black-box Python suite (eclipse-zenoh 1.10.2 in .venv, created and filled from PyPI) against
 #      the release binary.
-# Needs a Rust toolchain and python3. Installs Python packages into .venv in the project, and the zenoh
+# Needs a Rust toolchain, a C toolchain and python3 (cmake and libclang for the `dds` feature come from
+# scripts/install-build-deps.sh). Installs Python packages into .venv in the project, and the zenoh
 # router zenohd 1.10.2 once into ~/.cache/attitude-service (scripts/ensure-zenohd.sh; ZENOHD_CACHE moves it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,11 +15,17 @@ cd "$(dirname "$0")/.."
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 
-echo "== cargo build --release"
-cargo build --release --locked
+# The `dds` feature (the ROS 2 edge on DDS, zenoh-plugin-ros2dds) builds CycloneDDS from C: cmake and
+# libclang, installed by apt-get when missing. Everything is built once, with the feature, by `cargo
+# test`: it builds the release binary for the integration tests too (target/release/attitude-service,
+# which the Python suite runs), so a separate `cargo build`, whose dependencies' features differ from the
+# tests' (dev-dependencies unify theirs), would only compile zenoh a second time.
+echo "== build dependencies of the dds feature"
+bash scripts/install-build-deps.sh
 
-echo "== cargo test --release --workspace"
-cargo test --release --workspace --all-targets --locked
+echo "== cargo test --release --workspace --features dds (builds the binary as well)"
+cargo test --release --workspace --all-targets --locked --features attitude-service/dds
+test -x target/release/attitude-service
 
 echo "== python black-box tests"
 bash scripts/python-tests.sh

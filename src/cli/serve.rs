@@ -75,10 +75,21 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
         zc.insert_json5("plugins/rest/http_port", &serde_json::to_string(&port)?)
             .map_err(|e| anyhow::anyhow!("--rest-http-port: {e}"))?;
     }
+    // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (service::ros2::dds).
+    if let (true, Some(dds)) = (file.service.ros2.enabled, &file.service.ros2.dds) {
+        let key = format!("plugins/{}", crate::service::ros2::dds::PLUGIN);
+        zc.insert_json5(&key, &dds.to_string())
+            .map_err(|e| anyhow::anyhow!("service.ros2.dds: {e}"))?;
+        // The plugin's routes for transient-local topics (/rosout, /tf_static) need timestamps, as
+        // zenoh-bridge-ros2dds turns them on.
+        zc.insert_json5("timestamping/enabled", "true")
+            .map_err(|e| anyhow::anyhow!("timestamping: {e}"))?;
+    }
     let opened = crate::service::session::open(zc)
         .await
         .map_err(|e| match e {
             ServiceError::Http(_) => anyhow::anyhow!("{e}"),
+            ServiceError::Zenoh(m) if m.contains("DDS") => anyhow::anyhow!("{m}"),
             _ => anyhow::anyhow!("cannot open the zenoh session: {e}"),
         })?;
     crate::service::run(

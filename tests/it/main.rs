@@ -22,6 +22,7 @@ mod proto;
 mod qpf;
 mod robustness;
 mod ros2;
+mod ros2_dds;
 mod service;
 mod sghqf;
 mod soak_cli;

@@ -170,7 +170,7 @@ fn the_preset_is_the_imu_preset_with_the_edge_on() {
 #[test]
 fn the_configuration_is_checked() {
     for (bad, says) in [
-        (r#"{"format": "dds"}"#, "format"),
+        (r#"{"format": "fastdds"}"#, "format"),
         (r#"{"imu_topic": "/imu//raw"}"#, "imu_topic"),
         (r#"{"output_topic": "imu/data_raw"}"#, "output_topic"),
         (

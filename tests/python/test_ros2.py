@@ -259,13 +259,24 @@ def test_bridge_key_format():
         got = []
         assert rp.wait_for(lambda: len(got.extend(rp.drain(sub)) or got) >= 30, 15), svc.log()
         tokens = rp.liveliness_keys(peer.session)
+        bridge_tokens = sorted(
+            str(r.ok.key_expr) for r in peer.session.liveliness().get("@/*/@ros2_lv/**", timeout=2.0) if r.ok is not None
+        )
     finally:
         peer.close()
         svc.stop()
     assert all(att is None for _, _, att in got), "the bridge's format has no attachment"
     m = rp.decode(got[-1][1])
     assert abs(m.angular_velocity.z - 0.1) < 0.02 and m.linear_acceleration.z == 9.81
-    assert not [k for k in tokens if "attitude_service" in k], "no rmw_zenoh graph in the bridge's format"
+    assert not [k for k in tokens if k.startswith("@ros2_lv/") and "attitude_service" in k], "no rmw_zenoh graph"
+    # The bridge's announcements instead (zenoh-plugin-ros2dds' liveliness_mgt.rs), so that a bridge makes the
+    # outputs' DDS writers: the vehicle's /robots/b1/imu/data and /diagnostics, reliable, volatile, keep-last 10.
+    imu_hash, diag_hash = rp.type_hash(IMU), rp.type_hash(DIAG)
+    announced = {k.split("/", 2)[2] for k in bridge_tokens if "/@ros2_lv/MP/" in k}
+    assert announced == {
+        f"@ros2_lv/MP/robots§b1§imu§data/sensor_msgs§msg§Imu/:1:0:0,10:typehash={imu_hash};",
+        f"@ros2_lv/MP/diagnostics/diagnostic_msgs§msg§DiagnosticArray/:1:0:0,10:typehash={diag_hash};",
+    }, bridge_tokens
 
 
 def make_bag(path, trial: dict, storage: str, t0: float = 1_764_000_000.0) -> None:

@@ -2,6 +2,7 @@
 //! section, parsed in two stages: raw (`deny_unknown_fields`, named defaults), then validated into
 //! [`ServiceConfig`]. `config/default.json5` documents every option; a test loads it.
 
+pub mod extends;
 mod raw;
 
 use super::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
@@ -123,7 +124,8 @@ pub fn load(path: &Path) -> Result<FileConfig, ConfigError> {
     parse(&text, &path.display().to_string())
 }
 
-/// Parses a configuration text (`origin` names it in errors).
+/// Parses a configuration text (`origin` names it in errors, and is the file whose directory a
+/// top-level `extends` is relative to: see [`extends`]).
 pub fn parse(text: &str, origin: &str) -> Result<FileConfig, ConfigError> {
     parse_with(text, origin, &[])
 }
@@ -135,7 +137,7 @@ pub fn parse_with(
     origin: &str,
     overrides: &[(String, serde_json::Value)],
 ) -> Result<FileConfig, ConfigError> {
-    let mut value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
+    let value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
         path: origin.to_string(),
         message: e.to_string(),
     })?;
@@ -143,6 +145,8 @@ pub fn parse_with(
         path: origin.to_string(),
         message,
     };
+    // `extends` (config/README.md): the base files under this one's values.
+    let mut value = extends::resolve(value, origin, &extends::read_file).map_err(invalid)?;
     for (path, v) in overrides {
         let mut at = &mut value;
         for key in path.split('.') {

@@ -20,7 +20,12 @@ pub enum CovarianceFrame {
 pub struct Ros2Config {
     pub enabled: bool,
     pub format: Ros2Format,
+    /// The ROS domain (rmw_zenoh's first key chunk; the DDS domain with `format: "dds"`): the file's
+    /// `domain_id`, else `ROS_DOMAIN_ID`, else 0.
     pub domain_id: u32,
+    /// `format: "dds"`: zenoh-plugin-ros2dds' configuration (the `dds` section, with the domain and
+    /// the node name filled in), run in the service's own zenoh runtime (`service::session`).
+    pub dds: Option<serde_json::Value>,
     /// Chunks in front of the vehicle id in every topic name (`/<namespace>/<V>/imu/data`); "" none.
     pub namespace: String,
     pub imu_topic: String,
@@ -36,6 +41,9 @@ pub struct Ros2Config {
     pub node_namespace: String,
     /// Vehicles whose topics are announced to the ROS graph at start (others from their first input).
     pub vehicles: Vec<String>,
+    /// The reset as a ROS 2 service (`std_srvs/srv/Trigger`, relative to `/<namespace>/V`; `reset.rs`),
+    /// in the bridge key format (and so on DDS); `None`: none.
+    pub reset_service: Option<String>,
     /// `/diagnostics` every this many seconds; `None`: off.
     pub diagnostics_period_s: Option<f64>,
     /// QoS chunk of the publishers' and subscriptions' liveliness tokens (rmw_zenoh's encoding).
@@ -54,7 +62,8 @@ impl Default for Ros2Config {
 pub struct RawRos2 {
     enabled: bool,
     format: String,
-    domain_id: u32,
+    domain_id: Option<u32>,
+    dds: serde_json::Map<String, serde_json::Value>,
     namespace: String,
     imu_topic: String,
     mag_topic: String,
@@ -66,6 +75,7 @@ pub struct RawRos2 {
     node_namespace: String,
     vehicles: Vec<String>,
     diagnostics_period_s: f64,
+    reset_service: String,
 }
 
 impl Default for RawRos2 {
@@ -73,7 +83,8 @@ impl Default for RawRos2 {
         RawRos2 {
             enabled: false,
             format: "rmw_zenoh".into(),
-            domain_id: 0,
+            domain_id: None,
+            dds: Default::default(),
             namespace: String::new(),
             imu_topic: "imu/data_raw".into(),
             mag_topic: "imu/mag".into(),
@@ -85,6 +96,7 @@ impl Default for RawRos2 {
             node_namespace: "/".into(),
             vehicles: Vec::new(),
             diagnostics_period_s: 1.0,
+            reset_service: String::new(),
         }
     }
 }
@@ -110,12 +122,45 @@ fn topic(name: &str, what: &str) -> Result<String, String> {
 pub fn validate(raw: RawRos2) -> Result<Ros2Config, String> {
     let format = match raw.format.as_str() {
         "rmw_zenoh" => Ros2Format::RmwZenoh,
-        "bridge" => Ros2Format::Bridge,
+        // DDS through the plugin in the service's runtime: the plugin maps each ROS topic onto the
+        // bridge's key, so the edge speaks the bridge format.
+        "bridge" | "dds" => Ros2Format::Bridge,
         other => {
             return Err(format!(
-                "service.ros2.format = {other:?}: \"rmw_zenoh\" or \"bridge\""
+                "service.ros2.format = {other:?}: \"rmw_zenoh\", \"bridge\" or \"dds\""
             ))
         }
+    };
+    let domain_id = match raw.domain_id {
+        Some(d) => d,
+        // As ROS 2 and the bridge do: the environment's domain when the file names none.
+        None => match std::env::var("ROS_DOMAIN_ID") {
+            Ok(v) if !v.trim().is_empty() => match v.trim().parse::<u32>() {
+                Ok(d) => d,
+                Err(_) if raw.enabled => {
+                    return Err(format!(
+                        "ROS_DOMAIN_ID = {v:?} (service.ros2.domain_id unset): not a domain id"
+                    ))
+                }
+                Err(_) => 0,
+            },
+            _ => 0,
+        },
+    };
+    let dds = if raw.format == "dds" {
+        Some(super::dds::plugin_config(
+            raw.dds,
+            domain_id,
+            &raw.node_name,
+            &raw.node_namespace,
+        )?)
+    } else if !raw.dds.is_empty() {
+        return Err(format!(
+            "service.ros2.dds is for format \"dds\" (the format is {:?})",
+            raw.format
+        ));
+    } else {
+        None
     };
     // rmw_zenoh accepts the domain ids of ROS 2 (0–232 by REP-2000's port arithmetic; any u32 on zenoh).
     let namespace = raw.namespace.trim_matches('/').to_string();
@@ -129,6 +174,16 @@ pub fn validate(raw: RawRos2) -> Result<Ros2Config, String> {
         Some(topic(&raw.mag_topic, "mag_topic")?)
     };
     let output_topic = topic(&raw.output_topic, "output_topic")?;
+    let reset_service = if raw.reset_service.is_empty() {
+        None
+    } else {
+        Some(topic(&raw.reset_service, "reset_service")?)
+    };
+    if let Some(r) = &reset_service {
+        if [Some(&imu_topic), mag_topic.as_ref(), Some(&output_topic)].contains(&Some(r)) {
+            return Err("service.ros2.reset_service must differ from the topics".into());
+        }
+    }
     if imu_topic == output_topic || mag_topic.as_deref() == Some(output_topic.as_str()) {
         return Err("service.ros2.output_topic must differ from the input topics".into());
     }
@@ -178,7 +233,8 @@ pub fn validate(raw: RawRos2) -> Result<Ros2Config, String> {
     Ok(Ros2Config {
         enabled: raw.enabled,
         format,
-        domain_id: raw.domain_id,
+        domain_id,
+        dds,
         namespace,
         imu_topic,
         mag_topic,
@@ -190,6 +246,7 @@ pub fn validate(raw: RawRos2) -> Result<Ros2Config, String> {
         node_namespace,
         vehicles: raw.vehicles,
         diagnostics_period_s,
+        reset_service,
         // Reliable, volatile, keep-last 10 (rclcpp's default publisher), in rmw_zenoh's encoding where
         // a value equal to rmw_zenoh's default is left empty: reliability, durability, history,depth,
         // deadline, lifespan, liveliness,lease.

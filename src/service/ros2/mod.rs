@@ -10,7 +10,9 @@
 //! waits (per vehicle, on the dispatcher thread) for the IMU sample it is paired with.
 
 pub mod config;
+pub mod dds;
 pub mod net;
+pub mod reset;
 
 pub use config::{CovarianceFrame, RawRos2, Ros2Config};
 

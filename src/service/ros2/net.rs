@@ -151,6 +151,7 @@ impl Ros2Outlet for Outlet {
 /// The running edge: what `stop` undeclares.
 pub struct Ros2Net {
     subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
+    queryables: Vec<zenoh::query::Queryable<()>>,
     watch: zenoh::pubsub::Publisher<'static>,
     graph: tokio::task::JoinHandle<Vec<zenoh::liveliness::LivelinessToken>>,
     stop: tokio::sync::watch::Sender<bool>,
@@ -162,6 +163,9 @@ impl Ros2Net {
         let _ = self.stop.send(true);
         for s in self.subscribers {
             let _ = s.undeclare().await;
+        }
+        for q in self.queryables {
+            let _ = q.undeclare().await;
         }
         if let Ok(tokens) = self.graph.await {
             for t in tokens {
@@ -188,6 +192,22 @@ pub async fn start(
             session
                 .declare_subscriber(key)
                 .callback(callback.clone())
+                .await
+                .map_err(zerr)?,
+        );
+    }
+    // The reset service (bridge key format: `reset.rs`): each call answered in a task of its own (it
+    // waits for the vehicle's worker).
+    let mut queryables = Vec::new();
+    if let (Ros2Format::Bridge, Some(reset)) = (keys.format, &c.reset_service) {
+        let handle = tokio::runtime::Handle::current();
+        let (engine, edge) = (engine.clone(), edge.clone());
+        queryables.push(
+            session
+                .declare_queryable(keys.topic_all(reset, "", ""))
+                .callback(move |q| {
+                    handle.spawn(super::reset::answer(engine.clone(), edge.clone(), q));
+                })
                 .await
                 .map_err(zerr)?,
         );
@@ -223,6 +243,7 @@ pub async fn start(
     );
     Ok(Ros2Net {
         subscribers,
+        queryables,
         watch,
         graph,
         stop,
@@ -278,6 +299,18 @@ async fn graph(
             seq: AtomicI64::new(1),
         })
     });
+    let bridge = super::dds::bridge_id(&shared.zid);
+    if let (false, Some(d)) = (rmw, &diagnostics) {
+        tokens.extend(
+            declare(super::dds::publisher_announcement(
+                &bridge,
+                d.key.as_str(),
+                RosType::DiagnosticArray.name(),
+                &diag_hash,
+            ))
+            .await,
+        );
+    }
     if rmw {
         let node_token = keys.node_token(&shared.zid, NODE_ID, node.0, node.1);
         tokens.extend(declare(node_token).await);
@@ -312,6 +345,22 @@ async fn graph(
                     continue;
                 };
                 if !rmw {
+                    // The bridge's announcement of the vehicle's output (`dds.rs`): a bridge (or the
+                    // plugin in this runtime) makes its DDS writer. The inputs' DDS readers come
+                    // from the DDS side's publishers (the bridge matches their QoS: best effort or
+                    // reliable, which one announced reader could not do for both).
+                    let key = keys.topic(&vehicle, &c.output_topic, "", "");
+                    let token = super::dds::publisher_announcement(
+                        &bridge,
+                        &key,
+                        RosType::Imu.name(),
+                        &RosType::Imu.hash(),
+                    );
+                    tokens.extend(declare(token).await);
+                    if let Some(reset) = &c.reset_service {
+                        let key = keys.topic(&vehicle, reset, "", "");
+                        tokens.extend(declare(super::reset::server_announcement(&bridge, &key)).await);
+                    }
                     continue;
                 }
                 // The vehicle's output publisher, and its input subscriptions.
