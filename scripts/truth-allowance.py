@@ -1,8 +1,17 @@
-"""Truth's own tilt error: at rest, the accelerometer measures gravity (plus its own error); the angle between the
-accelerometer's vertical and the truth's vertical (aligned via VQF's L, R) per rest period."""
-import sys, numpy as np
-sys.path.insert(0,'/work/main/clients/python/src')
-from attitude_client.replay import alignment, quatmult, invquat, rotation_matrix, load_trial, run_vqf
+#!/usr/bin/env python3
+"""The truth's own tilt error of recordings, measured where the accelerometer is the best tilt reference there is: at
+rest, it measures gravity (and its own small error). Per rest period (the gyro within 0.03 rad/s of its opening
+median for at least 0.5 s), the angle between the accelerometer's mean direction and the truth's vertical (carried
+into VQF's frames for a truth with its own frames, `align: both`, docs/recordings.md). The per-axis 1σ, RMS/√2, is
+the allowance the scores add for the truth (`truth_tilt_sigma_deg`).
+
+    .venv/bin/python scripts/truth-allowance.py RECORDING.hdf5|RECORDING.csv [...]
+"""
+import sys
+
+import numpy as np
+
+from attitude_client.replay import alignment, invquat, load_trial, quatmult, rotation_matrix, run_vqf
 def rests(g, rate, thr=0.03, min_s=0.5):
     still = np.linalg.norm(g - np.median(g[:max(5,int(rate))],0),axis=1) < thr
     out=[]; k=0; n=len(g)
@@ -15,6 +24,8 @@ def rests(g, rate, thr=0.03, min_s=0.5):
         else: k+=1
     return out
 allerr=[]
+if len(sys.argv) < 2:
+    sys.exit(__doc__)
 for p in sys.argv[1:]:
     tr=load_trial(p,None)
     q=run_vqf(tr)

@@ -12,7 +12,9 @@ What it does (it never starts the service):
    sensor in an East-North-Up frame aligned with magnetic north; NaN rows where the cameras lost the markers),
    ``movement`` (bool), attribute ``sampling_rate``. Sample k is at ``t_k = (first_sample + k) / rate``, with
    ``first_sample`` an optional attribute (0 when absent): an excerpt (``tests/data/broad/``) keeps the time of its
-   source trial. Your own recording works if it has these datasets (``opt_quat`` and ``movement`` only for scoring).
+   source trial. Your own recording works if it has these datasets (``opt_quat`` and ``movement`` only for scoring),
+   or as a CSV trial (docs/recordings.md); a truth in its own frames (``align: both``) is aligned to each estimator
+   on its own, and the truth's own errors (``truth_tilt_sigma_deg``, ``truth_time_sigma_s``) are allowed for.
 2. Streams the raw samples into one vehicle per ``--filters`` entry, one vehicle after the other (each configured
    by a reset request, e.g. ``{"filter": "qpf", "fiducial": "average", "particles": N}``), on ``P/V/imu``: batches of
    ``--batch`` samples ``{"t": t_k, "gyr", "acc", "mag"}`` (body frame; sample k's rate covers ``(t_{k−1}, t_k]``),
@@ -632,7 +634,8 @@ def run_madgwick(trial: dict) -> np.ndarray:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("trial", type=Path, help="a BROAD trial (.hdf5) or a recording with the same datasets")
+    ap.add_argument("trial", type=Path, help="a BROAD trial (.hdf5), a recording with the same datasets, or a CSV "
+                                              "trial (docs/recordings.md)")
     ap.add_argument("--connect", required=True, help="zenoh endpoint of the running service, e.g. tcp/127.0.0.1:7447")
     ap.add_argument("--prefix", default="attitude", help="the service's key prefix (default attitude)")
     ap.add_argument("--json", action="store_true", help="print one JSON object {estimator: {total_rmse_deg, ...}}")
@@ -693,7 +696,8 @@ def main() -> int:
                 runs[spec]["rejected"].values())
 
     scores = {
-        spec: broad_scores(run["quat"], run["cov_att"], trial["opt_quat"], trial["movement"])
+        spec: broad_scores(run["quat"], run["cov_att"], trial["opt_quat"], trial["movement"], trial["truth"],
+                           trial["gyr"])
         for spec, run in runs.items()
     }
     peer_seconds = {}
@@ -702,7 +706,7 @@ def main() -> int:
             t0 = time.perf_counter()
             q = fn(trial)
             peer_seconds[name] = time.perf_counter() - t0
-            scores[name] = broad_scores(q, None, trial["opt_quat"], trial["movement"])
+            scores[name] = broad_scores(q, None, trial["opt_quat"], trial["movement"], trial["truth"])
     results = {name: {k: v for k, v in s.items() if k != "scored"} for name, s in scores.items()}
 
     if args.details:
@@ -751,7 +755,7 @@ def main() -> int:
                 note += f", {args.particles} particles"
         print(f"{name:<14} {r['total_rmse_deg']:>8.2f} {r['heading_rmse_deg']:>9.2f} "
               f"{r['inclination_rmse_deg']:>8.2f}{honesty}   {note}")
-    print("BROAD RMSE over `movement` (broad_utils.calculateRMSE, no heading alignment); honesty as "
+    print(f"BROAD RMSE over `movement` (broad_utils.calculateRMSE, alignment: {trial['truth']['align']}); honesty as "
           "src/study/broad.rs. " + ATTRIBUTION)
     return 0
 
