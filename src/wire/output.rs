@@ -113,6 +113,11 @@ pub struct DiagnosticsMsg {
     /// Late samples fused by rolling back and replaying (since the vehicle was created or restored).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub late_fused: u64,
+    /// Puts of this vehicle's inputs that zenoh reported lost on the way and could not recover from
+    /// the publisher's cache (each report also a `samples_missed` on `P/V/rejected`), since the
+    /// vehicle was created or restored.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub missed: u64,
     /// The raw-IMU pipeline of a vehicle fed `P/V/imu` (absent otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<ImuDiagnosticsMsg>,
