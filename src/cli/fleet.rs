@@ -9,6 +9,7 @@ use crate::service::config as service_config;
 use crate::service::keys::Keys;
 use crate::sim::ScenarioName;
 use crate::tools::demo::{demo as run_demo, render};
+use crate::tools::publish::Publishing;
 use crate::tools::simulate::{simulate as run_simulate, SimulateOptions};
 use anyhow::{bail, Result};
 use clap::Args;
@@ -54,6 +55,10 @@ struct FleetArgs {
     /// members (what a dynamic fleet needs to scale; a single instance takes them too).
     #[arg(long)]
     routed: bool,
+    /// Plain puts instead of advanced publishers (which keep their last puts for the service to fetch
+    /// again when one is lost: proto/README.md, "Loss, recovery and back-pressure").
+    #[arg(long)]
+    plain: bool,
 }
 
 #[derive(Args)]
@@ -107,6 +112,11 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
         seed: fleet.seed,
         reset: !fleet.no_reset,
         routed: fleet.routed,
+        publishing: if fleet.plain {
+            Publishing::plain()
+        } else {
+            Publishing::default()
+        },
     })
 }
 

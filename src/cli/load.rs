@@ -6,6 +6,7 @@ use super::runtime::init_logging;
 use crate::filters::FilterSpec;
 use crate::service::config as service_config;
 use crate::service::keys::Keys;
+use crate::tools::publish::Publishing;
 use crate::tools::{loadgen, soak};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -54,6 +55,10 @@ pub struct LoadgenArgs {
     /// burst every period).
     #[arg(long)]
     spread: bool,
+    /// Plain puts instead of advanced publishers (one per key, with a cache and sequence numbers:
+    /// proto/README.md, "Loss, recovery and back-pressure").
+    #[arg(long)]
+    plain: bool,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -99,6 +104,11 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
+        publishing: if args.plain {
+            Publishing::plain()
+        } else {
+            Publishing::default()
+        },
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

@@ -419,6 +419,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         covering: false,
         routed: false,
         spread: false,
+        publishing: Default::default(),
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();
