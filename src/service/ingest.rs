@@ -10,7 +10,9 @@
 //!   publisher's later samples until the answer comes, at most `query_timeout_s`); what cannot be
 //!   recovered is reported (`Miss`) and told on the vehicle's `P/V/rejected` (`samples_missed`). When
 //!   the service starts, or a publisher appears (a reconnection), the last `history_samples` of its
-//!   cache are asked for: what a publisher put while the service was down or unreachable arrives.
+//!   cache are asked for: what a publisher put while the service was down or unreachable arrives
+//!   (zenoh-ext drops that answer when a live put beats it: the first put of a publisher the service
+//!   did not know, numbered above 0, has the puts before it fetched here too, [`Intake::numbered`]).
 //! * a **plain subscriber** for every other sample (plain publishers: no recovery, no detection; the
 //!   vehicles see the gaps in the sample times). They are kept apart because zenoh-ext orders the
 //!   samples it cannot number by their timestamps, per clock, and drops any older than one it
