@@ -59,6 +59,9 @@ struct FleetArgs {
     /// again when one is lost: proto/README.md, "Loss, recovery and back-pressure").
     #[arg(long)]
     plain: bool,
+    /// Puts each input key's advanced publisher keeps for the service to fetch again.
+    #[arg(long, default_value_t = crate::tools::publish::CACHE)]
+    cache: usize,
 }
 
 #[derive(Args)]
@@ -112,11 +115,22 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
         seed: fleet.seed,
         reset: !fleet.no_reset,
         routed: fleet.routed,
-        publishing: if fleet.plain {
-            Publishing::plain()
-        } else {
-            Publishing::default()
-        },
+        publishing: publishing(fleet.plain, fleet.cache)?,
+    })
+}
+
+/// How a fleet command's (or `loadgen`'s) inputs are put: `--plain`, `--cache`.
+pub(super) fn publishing(plain: bool, cache: usize) -> Result<Publishing> {
+    if cache == 0 {
+        bail!("--cache must be at least 1");
+    }
+    Ok(if plain {
+        Publishing::plain()
+    } else {
+        Publishing {
+            cache,
+            ..Publishing::default()
+        }
     })
 }
 

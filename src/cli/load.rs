@@ -6,7 +6,6 @@ use super::runtime::init_logging;
 use crate::filters::FilterSpec;
 use crate::service::config as service_config;
 use crate::service::keys::Keys;
-use crate::tools::publish::Publishing;
 use crate::tools::{loadgen, soak};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -59,6 +58,9 @@ pub struct LoadgenArgs {
     /// proto/README.md, "Loss, recovery and back-pressure").
     #[arg(long)]
     plain: bool,
+    /// Puts each input key's advanced publisher keeps for the service to fetch again.
+    #[arg(long, default_value_t = crate::tools::publish::CACHE)]
+    cache: usize,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -104,11 +106,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
-        publishing: if args.plain {
-            Publishing::plain()
-        } else {
-            Publishing::default()
-        },
+        publishing: super::fleet::publishing(args.plain, args.cache)?,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

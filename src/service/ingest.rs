@@ -408,7 +408,9 @@ mod tests {
 
     #[test]
     fn sources_stay_bounded_and_follow_their_key() {
-        let id = |i: u32| EntityGlobalId::new(zenoh::config::ZenohId::default(), i);
+        // (A default ZenohId is a random one: one for all.)
+        let zid = zenoh::config::ZenohId::default();
+        let id = |i: u32| EntityGlobalId::new(zid, i);
         let mut s = Sources::default();
         assert!(s.entry(&id(0), "p/a/imu").1);
         assert!(!s.entry(&id(0), "p/a/imu").1);
