@@ -154,11 +154,11 @@ impl Intake {
         }
         let key = sample.key_expr().as_str().to_string();
         let vehicle = match self.engine.keys.classify(&key) {
-            Some(Received::Vehicle { vehicle, leaf, .. })
-                if matches!(leaf, Leaf::Gyro | Leaf::Vectors | Leaf::Imu) =>
-            {
-                Some(vehicle.to_string())
-            }
+            Some(Received::Vehicle {
+                vehicle,
+                leaf: Leaf::Gyro | Leaf::Vectors | Leaf::Imu,
+                ..
+            }) => Some(vehicle.to_string()),
             _ => None,
         };
         let inbound = Inbound {

@@ -5,11 +5,12 @@
 //! payload back on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
 //!
 //! Its puts have the service's own quality of service: congestion control `Block` (never a silent
-//! drop), not `express` (zenoh batches what queues up while the link is busy). On the plain keys they go
-//! through advanced publishers ([`super::publish`]: a sequence number, a cache, a heartbeat, what a
-//! sender should use), one per key; `--plain` puts without declaring anything (what loadgen did before
-//! the advanced publishers, and what the echo's figures were measured with: a declaration per key is
-//! also one more entry for zenoh to resolve keys against on the receiver, BENCHMARKS.md).
+//! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts by default, not
+//! a publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives or puts against
+//! all the declarations it knows, so thousands of declared keys would cost the receiver (service or
+//! echo) far more than they save. `--advanced` puts through advanced publishers ([`super::publish`]: a
+//! sequence number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a
+//! token each: what that costs the service is measured in BENCHMARKS.md.
 
 use super::publish::{Inputs, Publishing};
 use super::routed::{RoutedSender, FLUSH_S};
