@@ -9,6 +9,7 @@ use crate::service::config as service_config;
 use crate::service::keys::Keys;
 use crate::sim::ScenarioName;
 use crate::tools::demo::{demo as run_demo, render};
+use crate::tools::publish::Publishing;
 use crate::tools::simulate::{simulate as run_simulate, SimulateOptions};
 use anyhow::{bail, Result};
 use clap::Args;
@@ -54,6 +55,13 @@ struct FleetArgs {
     /// members (what a dynamic fleet needs to scale; a single instance takes them too).
     #[arg(long)]
     routed: bool,
+    /// Plain puts instead of advanced publishers (which keep their last puts for the service to fetch
+    /// again when one is lost: proto/README.md, "Loss, recovery and back-pressure").
+    #[arg(long)]
+    plain: bool,
+    /// Puts each input key's advanced publisher keeps for the service to fetch again.
+    #[arg(long, default_value_t = crate::tools::publish::CACHE)]
+    cache: usize,
 }
 
 #[derive(Args)]
@@ -107,6 +115,22 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
         seed: fleet.seed,
         reset: !fleet.no_reset,
         routed: fleet.routed,
+        publishing: publishing(fleet.plain, fleet.cache)?,
+    })
+}
+
+/// How a fleet command's (or `loadgen`'s) inputs are put: `--plain`, `--cache`.
+pub(super) fn publishing(plain: bool, cache: usize) -> Result<Publishing> {
+    if cache == 0 {
+        bail!("--cache must be at least 1");
+    }
+    Ok(if plain {
+        Publishing::plain()
+    } else {
+        Publishing {
+            cache,
+            ..Publishing::default()
+        }
     })
 }
 

@@ -54,6 +54,14 @@ pub struct LoadgenArgs {
     /// burst every period).
     #[arg(long)]
     spread: bool,
+    /// Put through advanced publishers (one per key, with a cache, sequence numbers and heartbeats:
+    /// proto/README.md, "Loss, recovery and back-pressure") instead of plain puts. Each costs the
+    /// receiving service CPU for every put it makes (BENCHMARKS.md): the load figures use plain puts.
+    #[arg(long)]
+    advanced: bool,
+    /// Puts each input key's advanced publisher keeps for the service to fetch again (--advanced).
+    #[arg(long, default_value_t = crate::tools::publish::CACHE)]
+    cache: usize,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -99,6 +107,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
+        publishing: super::fleet::publishing(!args.advanced, args.cache)?,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

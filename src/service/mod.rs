@@ -7,6 +7,7 @@
 pub mod config;
 pub mod engine;
 pub mod fleet;
+pub mod ingest;
 pub mod keys;
 pub mod persist;
 pub mod ros2;
@@ -16,7 +17,7 @@ pub use attitude_core::vehicle;
 
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use config::ServiceConfig;
-use engine::{Engine, EstimateOutlet, Inbound, Outlets, RoutePlan, Sink, METRICS_ENCODING};
+use engine::{Engine, EstimateOutlet, Outlets, RoutePlan, Sink, METRICS_ENCODING};
 use keys::{route_of, Keys, Leaf, ROUTES};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -103,38 +104,20 @@ pub async fn run(
     let (engine, threads) = Engine::start_with(config, sink, outlets)?;
     let keys = engine.keys.clone();
 
+    // The inputs (`service::ingest`): AdvancedSubscribers for the publishers that number their
+    // samples, plain subscribers for the others; every callback hands the raw sample to the engine.
+    let intake = ingest::Intake::new(engine.clone(), threads.ingest.clone(), &session);
     let callback = {
-        let ingest = threads.ingest.clone();
-        let engine = engine.clone();
-        move |sample: zenoh::sample::Sample| {
-            let inbound = Inbound {
-                key: sample.key_expr().as_str().to_string(),
-                payload: sample.payload().to_bytes().into_owned(),
-            };
-            // Never block zenoh's thread: count what cannot be taken.
-            if ingest.try_send(Some(inbound)).is_err() {
-                engine
-                    .counters
-                    .ingest_overflow
-                    .fetch_add(1, Ordering::Relaxed);
-            }
-        }
+        let intake = intake.clone();
+        move |sample: zenoh::sample::Sample| intake.plain(sample)
     };
-    let gyro = session
-        .declare_subscriber(keys.all(Leaf::Gyro))
-        .callback(callback.clone())
-        .await
-        .map_err(zerr)?;
-    let vectors = session
-        .declare_subscriber(keys.all(Leaf::Vectors))
-        .callback(callback.clone())
-        .await
-        .map_err(zerr)?;
-    let imu = session
-        .declare_subscriber(keys.all(Leaf::Imu))
-        .callback(callback.clone())
-        .await
-        .map_err(zerr)?;
+    let inputs = ingest::InputSubscriptions::declare(
+        &session,
+        &[Leaf::Gyro, Leaf::Vectors, Leaf::Imu].map(|l| keys.all(l)),
+        &engine.config.ingest,
+        &intake,
+    )
+    .await?;
     // The ROS 2 edge (service.ros2): its inputs go through the same callback. (Not routed: every
     // member of a fleet receives them, and the owner of the vehicle uses them.)
     let ros2 = match engine.ros2() {
@@ -265,9 +248,7 @@ pub async fn run(
     // Stop taking input first, then let the workers finish (their last estimates are published),
     // then leave the fleet (the others take over from those estimates and replay what they kept
     // since), then close the session.
-    let _ = gyro.undeclare().await;
-    let _ = vectors.undeclare().await;
-    let _ = imu.undeclare().await;
+    inputs.undeclare().await;
     if let Some(r) = ros2 {
         r.stop().await;
     }

@@ -5,11 +5,14 @@
 //! payload back on `P/V/estimate`) in exactly the same way, so every report carries its own baseline.
 //!
 //! Its puts have the service's own quality of service: congestion control `Block` (never a silent
-//! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts, not a
-//! publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives against all
-//! the declarations it knows, so thousands of declared keys would cost the receiver (service or echo)
-//! far more than they save.
+//! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts by default, not
+//! a publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives or puts against
+//! all the declarations it knows, so thousands of declared keys would cost the receiver (service or
+//! echo) far more than they save. `--advanced` puts through advanced publishers ([`super::publish`]: a
+//! sequence number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a
+//! token each: what that costs the service is measured in BENCHMARKS.md.
 
+use super::publish::{Inputs, Publishing};
 use super::routed::{RoutedSender, FLUSH_S};
 use crate::service::keys::{Keys, Leaf};
 use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
@@ -46,6 +49,8 @@ pub struct LoadOptions {
     /// Each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as
     /// independent vehicles send, instead of every vehicle's at the start of each period (a burst).
     pub spread: bool,
+    /// How the inputs on their plain keys are put.
+    pub publishing: Publishing,
 }
 
 /// With `spread`, vehicles sent together (the sender's timer has a resolution of about 1 ms).
@@ -396,19 +401,14 @@ pub async fn run(
         keys_of(Leaf::Vectors)?,
         keys_of(Leaf::Imu)?,
     );
+    let inputs = Inputs::new(session, options.publishing.clone());
     let put = |i: usize, leaf: Leaf, key: &KeyExpr<'static>, payload: Vec<u8>| {
-        let (session, routed, ids) = (session, routed.as_ref(), &ids);
+        let (routed, ids, inputs) = (routed.as_ref(), &ids, &inputs);
         let key = key.clone();
         async move {
             match routed {
                 Some(r) => r.put(&ids[i], leaf, &key, payload).await,
-                None => {
-                    session
-                        .put(key, payload)
-                        .encoding(Encoding::APPLICATION_JSON)
-                        .congestion_control(CongestionControl::Block)
-                        .await
-                }
+                None => inputs.put(&key, payload).await,
             }
         }
     };

@@ -1,6 +1,7 @@
 //! `attitude-service simulate`: publishes the simulator's scenarios for N vehicles to a running
 //! service over zenoh, in real time or faster, with the truth on `P/V/truth`.
 
+use super::publish::{Inputs, Publishing};
 use super::routed::{RoutedSender, FLUSH_S};
 use crate::filters::FilterSpec;
 use crate::rng::derive_seed;
@@ -14,6 +15,7 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
+use zenoh::key_expr::KeyExpr;
 use zenoh::qos::CongestionControl;
 use zenoh::query::ConsolidationMode;
 
@@ -50,6 +52,8 @@ pub struct SimulateOptions {
     /// Inputs on their routed keys, and batched for the routes' standby members
     /// ([`super::routed`]).
     pub routed: bool,
+    /// How the inputs on their plain keys are put ([`super::publish`]: advanced publishers by default).
+    pub publishing: Publishing,
 }
 
 /// What was published.
@@ -206,13 +210,18 @@ pub async fn simulate(
     let routed = options
         .routed
         .then(|| RoutedSender::start(session, keys, Duration::from_secs_f64(FLUSH_S)));
+    let inputs = Inputs::new(session, options.publishing.clone());
     // An input: on its routed key (and batched) or its plain key.
     let input = |id: &str, leaf: Leaf, payload: Vec<u8>| {
-        let (routed, id) = (routed.as_ref(), id.to_string());
+        let (routed, id, inputs) = (routed.as_ref(), id.to_string(), &inputs);
         async move {
             match routed {
                 Some(r) => r.put(&id, leaf, &r.key(&id, leaf)?, payload).await,
-                None => put(keys.vehicle(&id, leaf), payload).await,
+                None => {
+                    inputs
+                        .put(&KeyExpr::try_from(keys.vehicle(&id, leaf))?, payload)
+                        .await
+                }
             }
         }
     };

@@ -66,12 +66,41 @@ pub struct HealthMsg {
     pub late_fused: u64,
     #[serde(default)]
     pub history_bytes: u64,
+    /// Puts of the vehicles' inputs that zenoh reported lost and could not recover, summed
+    /// (`samples_missed`).
+    #[serde(default)]
+    pub missed: u64,
+    /// How inputs get from zenoh to the vehicles: recovery, back-pressure, refusals.
+    #[serde(default)]
+    pub ingest: IngestHealthMsg,
     /// Checkpointing, when a state directory is configured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoints: Option<CheckpointHealthMsg>,
     /// This instance and its fleet.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fleet: Option<FleetHealthMsg>,
+}
+
+/// `P/@/health` `ingest`: the way from zenoh to the vehicles (proto/README.md, "Loss, recovery and
+/// back-pressure").
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IngestHealthMsg {
+    /// The input keys are subscribed with sample-miss detection and recovery (`service.ingest.recovery`).
+    pub recovery: bool,
+    /// Inputs waiting for the dispatcher now, and the channel's capacity.
+    pub depth: usize,
+    pub capacity: usize,
+    /// Inputs of plain publishers that waited for room (holding zenoh's receiving thread: back-pressure
+    /// on their sender), and the seconds waited in all.
+    pub waited: u64,
+    pub wait_s: f64,
+    /// Inputs refused on arrival for want of room (`rejected.ingest_overflow`; each told on
+    /// `P/V/rejected` as `queue_full`).
+    pub refused: u64,
+    /// Samples of vehicles restored from checkpoints that zenoh delivered again from a publisher's
+    /// cache after the restart, at or before what the checkpoint already held: skipped.
+    pub redelivered: u64,
 }
 
 /// `P/@/health` `fleet`: this instance's place in its fleet.

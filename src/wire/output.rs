@@ -113,6 +113,11 @@ pub struct DiagnosticsMsg {
     /// Late samples fused by rolling back and replaying (since the vehicle was created or restored).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub late_fused: u64,
+    /// Puts of this vehicle's inputs that zenoh reported lost on the way and could not recover from
+    /// the publisher's cache (each report also a `samples_missed` on `P/V/rejected`), since the
+    /// vehicle was created or restored.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub missed: u64,
     /// The raw-IMU pipeline of a vehicle fed `P/V/imu` (absent otherwise).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<ImuDiagnosticsMsg>,
@@ -162,6 +167,12 @@ pub struct ImuDiagnosticsMsg {
     /// last did (since the start without one): an unaided heading's variance grows with the gyro.
     pub heading_aided: bool,
     pub heading_unaided_s: f64,
+    /// Gaps in the samples (an interval of more than three usual ones) and the seconds they hid:
+    /// each bridged by the rates on both sides and paid for in the covariance.
+    #[serde(default)]
+    pub gaps: u64,
+    #[serde(default)]
+    pub blind_s: f64,
     /// The sensors' noise as measured at rest (0 until there was rest), in a datasheet's units.
     pub measured: MeasuredNoiseMsg,
 }
@@ -345,6 +356,8 @@ impl From<&ImuDiagnostics> for ImuDiagnosticsMsg {
             acc_saturated: c.acc_saturated,
             heading_aided: c.heading_unaided_s <= crate::ahrs::HEADING_AIDED_S,
             heading_unaided_s: c.heading_unaided_s,
+            gaps: c.gaps,
+            blind_s: c.blind_s,
             measured: MeasuredNoiseMsg {
                 gyro_noise_density_deg_s_sqrt_hz: d.measured.gyro_noise_density_deg_s_sqrt_hz,
                 acc_noise_density_ug_sqrt_hz: d.measured.acc_noise_density_ug_sqrt_hz,

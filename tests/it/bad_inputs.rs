@@ -18,7 +18,7 @@
 //! service gets wrong fails this test.
 
 use crate::common::{collecting_engine, proto_dir, service_config, wait_until, Outputs};
-use attitude_service::service::engine::{Engine, EngineThreads, Inbound};
+use attitude_service::service::engine::{Engine, EngineThreads, Inbound, Ingest};
 use attitude_service::service::keys::{route_of, ROUTES};
 use attitude_service::wire::{
     decode_one, ErrorMsg, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
@@ -99,6 +99,10 @@ struct Row {
     ros2_type: Option<String>,
     #[serde(default)]
     ros2_hash: Option<String>,
+    /// No payload: zenoh reports this many puts of the key lost (proto/BAD_INPUTS.md, "Rows of
+    /// samples missed").
+    #[serde(default)]
+    missed: Option<u64>,
 }
 
 /// The Jazzy type hashes of the ROS 2 rows' topics (as rosbags computes them; tests/python/test_ros2.py).
@@ -155,6 +159,14 @@ impl Row {
     }
 
     fn payload(&self) -> Vec<u8> {
+        if self.missed.is_some() {
+            assert!(
+                self.payload.is_none() && self.payload_hex.is_none() && self.payload_gen.is_none(),
+                "{}: a row of samples missed has no payload",
+                self.id
+            );
+            return Vec::new();
+        }
         match (&self.payload, &self.payload_hex, &self.payload_gen) {
             (Some(p), None, None) => p.as_bytes().to_vec(),
             (None, Some(h), None) => unhex(h),
@@ -206,6 +218,16 @@ fn rows() -> Vec<Row> {
             "{}: unknown code {:?}",
             r.id,
             r.code
+        );
+        assert!(
+            r.missed.is_none()
+                || (r.code == "samples_missed"
+                    && r.missed.is_some_and(|n| n > 0)
+                    && ["gyro", "vectors", "imu"].contains(&r.leaf.as_str())
+                    && r.vehicle.is_none()
+                    && r.route.is_none()),
+            "{}: missed rows are samples_missed of the healthy vehicle's own key, N > 0",
+            r.id
         );
         if let Some(t) = r.propagated_to {
             assert!(
@@ -623,7 +645,15 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             }
         }
     } else {
-        run.put_on(&row.input_key(target), row.payload());
+        match row.missed {
+            // What the service's advanced subscriber hands the engine when zenoh reports the loss.
+            Some(count) => run.engine.dispatch_item(Ingest::Missed {
+                key: row.input_key(target),
+                count,
+                source: "bad-inputs/0".into(),
+            }),
+            None => run.put_on(&row.input_key(target), row.payload()),
+        }
         run.wait(Duration::from_secs(10), |r| {
             !r.rejections_since(n0).is_empty()
         });
@@ -712,6 +742,15 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
             }
             let mut p = p;
             p.diagnostics.propagations = base.diagnostics.propagations;
+            // The puts zenoh reported missed are counted in the vehicle's diagnostics.
+            let want_missed = row.missed.unwrap_or(0);
+            if p.diagnostics.missed != want_missed {
+                fails.push(format!(
+                    "diagnostics.missed of the probe's estimate is {}, want {want_missed}",
+                    p.diagnostics.missed
+                ));
+            }
+            p.diagnostics.missed = base.diagnostics.missed;
             if without_rejected(&p) != without_rejected(&base) {
                 fails.push(format!(
                     "the probe's estimate differs from a vehicle that never saw the row: seq {} vs {}, \

@@ -204,9 +204,9 @@ fn a_member_takes_over_without_losing_a_set() {
                         payload: payload.into_bytes(),
                     };
                     if to_a {
-                        ta.ingest.send(Some(inbound.clone())).unwrap();
+                        ta.ingest.send(Some(inbound.clone().into())).unwrap();
                     }
-                    tb.ingest.send(Some(inbound)).unwrap();
+                    tb.ingest.send(Some(inbound.into())).unwrap();
                 }
             }
         }
@@ -215,7 +215,9 @@ fn a_member_takes_over_without_losing_a_set() {
         let new: Vec<(String, Vec<u8>)> = out_a.lock().unwrap()[*seen..].to_vec();
         *seen += new.len();
         for (key, payload) in new {
-            tb.ingest.send(Some(Inbound { key, payload })).unwrap();
+            tb.ingest
+                .send(Some(Inbound { key, payload }.into()))
+                .unwrap();
         }
     };
     let mut relayed = 0;
@@ -368,10 +370,13 @@ fn routed_inputs_reach_owners_and_standbys_only() {
             };
             if alive.borrow()[i] && subscribed.contains(&route) {
                 t.ingest
-                    .send(Some(Inbound {
-                        key: key.to_string(),
-                        payload: payload.to_vec(),
-                    }))
+                    .send(Some(
+                        Inbound {
+                            key: key.to_string(),
+                            payload: payload.to_vec(),
+                        }
+                        .into(),
+                    ))
                     .unwrap();
             }
         }

@@ -21,8 +21,9 @@ use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
-    ImuDiagnosticsMsg, ImuMsg, InputLimits, ObservationMsg, PerAxis, QuaternionMsg, RejectCode,
-    Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg, VehicleInfoMsg,
+    ImuDiagnosticsMsg, ImuMsg, IngestHealthMsg, InputLimits, MeasuredNoiseMsg, ObservationMsg, PerAxis,
+    QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
+    VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;
@@ -420,6 +421,7 @@ fn full_estimate() -> EstimateMsg {
             held: 2,
             replayed: true,
             late_fused: 3,
+            missed: 2,
             imu: Some(full_imu_diagnostics()),
         },
     }
@@ -444,6 +446,19 @@ fn full_imu_diagnostics() -> ImuDiagnosticsMsg {
         mag_norm: Some(44.5),
         mag_dip_deg: Some(69.8),
         mag_offset: Some([0.3, -0.2, -5.9]),
+        mag_reference: Some("confirmed".to_string()),
+        gyro_saturated: 3,
+        acc_saturated: 1,
+        heading_aided: true,
+        heading_unaided_s: 0.5,
+        gaps: 2,
+        blind_s: 0.35,
+        measured: MeasuredNoiseMsg {
+            gyro_noise_density_deg_s_sqrt_hz: 0.007,
+            acc_noise_density_ug_sqrt_hz: 120.0,
+            mag_noise: 0.2,
+            rest_s: 40.0,
+        },
     }
 }
 
@@ -540,6 +555,16 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         rollbacks: 0,
         late_fused: 4,
         history_bytes: 123456,
+        missed: 3,
+        ingest: IngestHealthMsg {
+            recovery: true,
+            depth: 1,
+            capacity: 65536,
+            waited: 2,
+            wait_s: 0.004,
+            refused: 5,
+            redelivered: 7,
+        },
         checkpoints: Some(CheckpointHealthMsg {
             state_dir: "/var/lib/attitude".into(),
             interval_s: 10.0,

@@ -396,6 +396,10 @@ fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
         r#"{ service: { limits: { max_vehicles: 0 } } }"#,
         r#"{ service: { unknown_option: 1 } }"#,
         r#"{ service: { vehicles: { "bad id": {} } } }"#,
+        r#"{ service: { ingest: { query_timeout_s: 0 } } }"#,
+        r#"{ service: { ingest: { wait_s: 5 } } }"#,
+        r#"{ service: { ingest: { pending_bytes_per_vehicle: 1000 } } }"#,
+        r#"{ service: { ingest: { pending_bytes: 1048576, pending_bytes_per_vehicle: 2097152 } } }"#,
     ] {
         assert!(parse(bad, "test").is_err(), "{bad} accepted");
     }
@@ -419,6 +423,7 @@ async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
         covering: false,
         routed: false,
         spread: false,
+        publishing: Default::default(),
     };
     let keys = Keys::new("attitude");
     let r = run(&h.client, &keys, &options, "service").await.unwrap();

@@ -77,7 +77,8 @@ def wait_until(predicate: Callable[[], bool], timeout: float, what: str, interva
 
 
 class ServiceProcess:
-    """`attitude-service serve --config <tmp> --listen tcp/127.0.0.1:<free port> [args]`."""
+    """`attitude-service serve --config <tmp> --listen tcp/127.0.0.1:<port> [args]`: a free port unless ``port``
+    (a restart on the same endpoint)."""
 
     def __init__(
         self,
@@ -85,11 +86,12 @@ class ServiceProcess:
         prefix: str = PREFIX,
         workdir: str | None = None,
         args: list[str] | None = None,
+        port: int | None = None,
     ):
         if not BIN.exists():
             pytest.fail(f"{BIN} does not exist: build it (cargo build --release) or run scripts/python-tests.sh")
         self.prefix = prefix
-        self.port = free_port()
+        self.port = port or free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.dir = pathlib.Path(workdir or tempfile.mkdtemp(prefix="attitude-pytest-"))
         config = {

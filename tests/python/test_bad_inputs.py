@@ -8,7 +8,9 @@ leaf `imu` and those whose `healthy` says so, raw IMU samples); a row with `conf
 `service.ros2` enabled, their CDR put on rmw_zenoh's key of the vehicle's topic. A row with `propagated_to` asserts the filters' contract for an
 update refused after its propagation (the filter and the vehicle's time stay at that time). No row is an expected
 failure: a row the service gets wrong fails its case. A row with `route: "wrong"` goes on a routed key whose
-route is not its vehicle's.
+route is not its vehicle's. A row with `missed: N` is two deletes from one publisher numbered 0 and N + 1 (zenoh's
+SourceInfo, as an advanced publisher numbers its puts): the service's advanced subscriber finds the N between
+missing, no cache to give them back, and reports them.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from conftest import ROOT, Collector, ServiceProcess, subscribe_synced, validate
 ROWS = json.loads((ROOT / "proto" / "bad-inputs.json").read_text(encoding="utf-8"))
 #: The keys a row may have (tests/it/bad_inputs.rs refuses any other, `known_issue` included).
 ROW_KEYS = {"id", "case", "leaf", "healthy", "vehicle", "payload", "payload_hex", "payload_gen", "config", "code",
-            "propagated_to", "route", "ros2_type", "ros2_hash"}
+            "propagated_to", "route", "ros2_type", "ros2_hash", "missed"}
 #: The Jazzy type hashes of the ROS 2 rows' topics (rosbags' own; tests/python/test_ros2.py).
 ROS2_TOPICS = {
     "ros2_imu": ("imu/data_raw", "sensor_msgs::msg::dds_::Imu_",
@@ -94,6 +96,8 @@ def generate(g: dict) -> bytes:
 
 
 def payload(row: dict) -> bytes:
+    if "missed" in row:
+        return b""
     if "payload" in row:
         return row["payload"].encode()
     if "payload_hex" in row:
@@ -268,6 +272,16 @@ def test_bad_input(service_for, baselines, index, row):
                 fails.append("empty message")
             if err["key"] != f"{prefix}/{target}/reset":
                 fails.append(f"the error's key is {err['key']}")
+    elif "missed" in row:
+        # A publisher (declared only for its id) whose puts 1..N never arrive: zenoh-ext asks for them on
+        # its cache's key, nothing answers, and it reports N missed before the delete numbered N + 1.
+        source = c.session.declare_publisher(in_key)
+        c.session.delete(in_key, source_info=zenoh.SourceInfo(source.id, 0))
+        c.session.delete(in_key, source_info=zenoh.SourceInfo(source.id, row["missed"] + 1))
+        deadline = time.monotonic() + 10.0
+        while not rejections.snapshot() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        source.undeclare()
     else:
         if row["leaf"] in ROS2_TOPICS:
             c.session.put(in_key, payload(row))
@@ -309,6 +323,10 @@ def test_bad_input(service_for, baselines, index, row):
             fails.append(f"diagnostics.propagations is {p['diagnostics']['propagations']}, want {want_propagations}")
         p = json.loads(json.dumps(p))
         p["diagnostics"]["propagations"] = baseline["diagnostics"]["propagations"]
+        # The puts zenoh reported missed are counted in the vehicle's diagnostics.
+        if p["diagnostics"].get("missed", 0) != row.get("missed", 0):
+            fails.append(f"diagnostics.missed is {p['diagnostics'].get('missed')}, want {row.get('missed', 0)}")
+        p["diagnostics"].pop("missed", None)
         # A refused filter step is rolled back and counted.
         want_rollbacks = baseline["diagnostics"].get("rollbacks", 0) + (own_input and code == "filter_error")
         if p["diagnostics"].get("rollbacks", 0) != want_rollbacks:

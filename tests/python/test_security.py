@@ -37,6 +37,7 @@ import zenoh
 from attitude_client import AttitudeClient, ServiceError
 from certs import make_ca, make_cert, make_pki
 from conftest import BIN, ROOT, Collector, free_port, wait_until
+from tcp_proxy import TcpProxy
 
 SECURITY = ROOT / "config" / "security"
 PREFIX = "attitude"  # the examples' key prefix
@@ -384,6 +385,35 @@ def test_sensor_put_to_another_vehicle_is_dropped(deployment):
     d.feed(d.open("sensor-sc2"), "sc2", estimates)
     sub.undeclare()
     rsub.undeclare()
+
+
+def test_a_sensors_puts_during_a_cut_link_come_back_through_the_policy(deployment):
+    """The client's advanced publishers through the policy (the rules `sc1-caches` and `sensors-told`): the
+    sensor's link is cut (a TCP proxy in front of the TLS endpoint) while it puts three sets; when it is back
+    the service fetches them from the sensor's cache, so every sample is received and the last set has its
+    estimate. (Without those rules a sensor's declared publishers stop sending once they learn of no
+    subscriber, and nothing could be fetched again.)"""
+    d = deployment
+    estimates, sub = operator_estimates(d)
+    proxy = TcpProxy(("127.0.0.1", d.port))
+    try:
+        sensor = d.open("sensor-sc1", **{"connect/endpoints": [f"tls/127.0.0.1:{proxy.port}"]})
+        d.feed(sensor, "sc1", estimates)
+        received0 = d.operator.health()["received"]
+        proxy.cut(2.0)
+        time.sleep(0.2)
+        for _ in range(3):
+            t = d.next_t()
+            sensor.publish_gyro("sc1", t - 0.5, [0.0, 0.0, 0.0])
+            sensor.publish_vectors("sc1", t, TWO_VECTORS)
+        wait_until(lambda: any(m["vehicle"] == "sc1" and m["t"] == t for m in estimates.snapshot()), 20,
+                   "the estimate of the last set put during the cut")
+        assert proxy.connections >= 2, proxy.connections
+        assert d.operator.health()["received"] - received0 == 6
+        assert d.operator.health()["missed"] == 0
+    finally:
+        proxy.close()
+        sub.undeclare()
 
 
 def test_reset_by_a_sensor_is_refused(deployment):

@@ -58,12 +58,15 @@ pub enum RejectCode {
     FilterError,
     /// A routed input (`P/V/<leaf>/<r>`) whose route `r` is not the vehicle's.
     WrongRoute,
+    /// Not a refusal of one input: zenoh reports puts of the vehicle's input key lost between an
+    /// advanced publisher and the service, and its cache could not give them back.
+    SamplesMissed,
     /// Something failed inside the service.
     Internal,
 }
 
 impl RejectCode {
-    pub const ALL: [RejectCode; 21] = [
+    pub const ALL: [RejectCode; 22] = [
         RejectCode::InvalidUtf8,
         RejectCode::InvalidJson,
         RejectCode::BadRequest,
@@ -84,6 +87,7 @@ impl RejectCode {
         RejectCode::MixedInputs,
         RejectCode::FilterError,
         RejectCode::WrongRoute,
+        RejectCode::SamplesMissed,
         RejectCode::Internal,
     ];
 
@@ -109,6 +113,7 @@ impl RejectCode {
             RejectCode::MixedInputs => "mixed_inputs",
             RejectCode::FilterError => "filter_error",
             RejectCode::WrongRoute => "wrong_route",
+            RejectCode::SamplesMissed => "samples_missed",
             RejectCode::Internal => "internal",
         }
     }

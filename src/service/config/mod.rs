@@ -73,6 +73,42 @@ impl Default for MetricsConfig {
     }
 }
 
+/// `service.ingest`: how inputs get from zenoh to the dispatcher (`service::ingest`, proto/README.md,
+/// "Loss, recovery and back-pressure").
+#[derive(Clone, Debug, PartialEq)]
+pub struct IngestConfig {
+    /// The input keys are subscribed by zenoh-ext AdvancedSubscribers: sample-miss detection and
+    /// recovery from advanced publishers' caches, and their history when a publisher (re)appears.
+    /// `false`: plain subscribers only.
+    pub recovery: bool,
+    /// The longest a recovery query may hold back a publisher's later samples, s (zenoh-ext's
+    /// `query_timeout`, 10 s unless set).
+    pub query_timeout_s: f64,
+    /// Most samples asked of each publisher's cache when the service starts or a publisher
+    /// (re)appears, and most of its samples held meanwhile; 0: no history.
+    pub history_samples: usize,
+    /// Most bytes of one vehicle's inputs between the subscribers and the dispatcher.
+    pub pending_bytes_per_vehicle: usize,
+    /// Most bytes of all inputs between the subscribers and the dispatcher.
+    pub pending_bytes: usize,
+    /// How long a plain publisher's input may wait for room before it is refused, s (the wait holds
+    /// zenoh's receiving thread: back-pressure to the sender).
+    pub wait_s: f64,
+}
+
+impl Default for IngestConfig {
+    fn default() -> Self {
+        IngestConfig {
+            recovery: true,
+            query_timeout_s: 1.0,
+            history_samples: 1000,
+            pending_bytes_per_vehicle: 8 << 20,
+            pending_bytes: 256 << 20,
+            wait_s: 0.5,
+        }
+    }
+}
+
 /// The validated `service` section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ServiceConfig {
@@ -87,6 +123,7 @@ pub struct ServiceConfig {
     pub persistence: Persistence,
     pub fleet: FleetConfig,
     pub metrics: MetricsConfig,
+    pub ingest: IngestConfig,
     /// The ROS 2 edge (off unless enabled).
     pub ros2: crate::service::ros2::Ros2Config,
 }
@@ -469,6 +506,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         raw.workers
     };
     let fleet = validate_fleet(&raw.key_prefix, raw.fleet)?;
+    let ingest = validate_ingest(&raw.ingest, raw.limits.max_payload_bytes)?;
     let ros2 = crate::service::ros2::config::validate(raw.ros2)?;
     if ros2.enabled {
         ros2_keys_apart(&raw.key_prefix, &ros2)?;
@@ -495,7 +533,41 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
         metrics: MetricsConfig {
             max_vehicles: raw.metrics.max_vehicles,
         },
+        ingest,
         ros2,
+    })
+}
+
+fn validate_ingest(i: &RawIngest, max_payload: usize) -> Result<IngestConfig, String> {
+    // (A recovery that holds a publisher back longer than a sender's `Block` waits (5 s) or the
+    // zenoh lease (10 s) would close links; the history's samples are held in memory per publisher.)
+    if !(i.query_timeout_s > 0.0 && i.query_timeout_s <= 60.0) {
+        return Err("service.ingest.query_timeout_s must be in (0, 60]".into());
+    }
+    if i.history_samples > 1_000_000 {
+        return Err("service.ingest.history_samples must be at most 1000000".into());
+    }
+    // (At least one largest payload, or such a payload could never be taken.)
+    if i.pending_bytes_per_vehicle < max_payload {
+        return Err(format!(
+            "service.ingest.pending_bytes_per_vehicle must be at least service.limits.max_payload_bytes ({max_payload})"
+        ));
+    }
+    if i.pending_bytes < i.pending_bytes_per_vehicle {
+        return Err(
+            "service.ingest.pending_bytes must be at least service.ingest.pending_bytes_per_vehicle".into(),
+        );
+    }
+    if !(i.wait_s >= 0.0 && i.wait_s <= 2.0) {
+        return Err("service.ingest.wait_s must be in [0, 2] (a longer wait risks the senders' links: zenoh closes a link whose Block put waits 5 s)".into());
+    }
+    Ok(IngestConfig {
+        recovery: i.recovery,
+        query_timeout_s: i.query_timeout_s,
+        history_samples: i.history_samples,
+        pending_bytes_per_vehicle: i.pending_bytes_per_vehicle,
+        pending_bytes: i.pending_bytes,
+        wait_s: i.wait_s,
     })
 }
 

@@ -28,6 +28,7 @@ pub(super) struct RawService {
     pub(super) persistence: RawPersistence,
     pub(super) fleet: RawFleet,
     pub(super) metrics: RawMetrics,
+    pub(super) ingest: RawIngest,
     pub(super) ros2: crate::service::ros2::RawRos2,
 }
 
@@ -47,6 +48,7 @@ impl Default for RawService {
             persistence: RawPersistence::default(),
             fleet: RawFleet::default(),
             metrics: RawMetrics::default(),
+            ingest: RawIngest::default(),
             ros2: Default::default(),
         }
     }
@@ -62,6 +64,31 @@ impl Default for RawMetrics {
     fn default() -> Self {
         RawMetrics {
             max_vehicles: MetricsConfig::default().max_vehicles,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(super) struct RawIngest {
+    pub(super) recovery: bool,
+    pub(super) query_timeout_s: f64,
+    pub(super) history_samples: usize,
+    pub(super) pending_bytes_per_vehicle: usize,
+    pub(super) pending_bytes: usize,
+    pub(super) wait_s: f64,
+}
+
+impl Default for RawIngest {
+    fn default() -> Self {
+        let d = IngestConfig::default();
+        RawIngest {
+            recovery: d.recovery,
+            query_timeout_s: d.query_timeout_s,
+            history_samples: d.history_samples,
+            pending_bytes_per_vehicle: d.pending_bytes_per_vehicle,
+            pending_bytes: d.pending_bytes,
+            wait_s: d.wait_s,
         }
     }
 }

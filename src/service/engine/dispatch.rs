@@ -7,29 +7,32 @@ use super::*;
 
 /// Inputs already waiting that the dispatcher queues before handing their vehicles to the workers.
 const DISPATCH_BATCH: usize = 64;
+/// The longest what the subscribers could not hand over waits to be told, s.
+const TELL_S: f64 = 0.01;
 
 impl Engine {
     /// The dispatcher thread: the inputs in arrival order, and the fleet's membership changes between
-    /// them, until the ingest channel says stop.
+    /// them, until the ingest channel says stop. Between them it tells what the subscribers could not
+    /// hand over (`Engine::tell_untold`), at least every [`TELL_S`].
     pub(super) fn dispatcher(
         &self,
-        ingest: crossbeam_channel::Receiver<Option<Inbound>>,
+        ingest: crossbeam_channel::Receiver<Option<Ingest>>,
         members: crossbeam_channel::Receiver<BTreeSet<String>>,
     ) {
         let (mut decoded, mut touched) = (Vec::new(), Vec::new());
+        let tell = std::time::Duration::from_secs_f64(TELL_S);
         loop {
+            self.tell_untold();
             crossbeam_channel::select! {
                 recv(ingest) -> m => {
-                    let Ok(Some(inbound)) = m else { return };
+                    let Ok(Some(first)) = m else { return };
                     // What else is already waiting is queued too before the vehicles go to the
                     // workers: in a burst a vehicle's inputs then take one worker turn, not one each.
-                    self.dispatch_with(inbound, &mut decoded, &mut touched);
+                    self.dispatch_ingest(first, &mut decoded, &mut touched);
                     let mut stop = false;
                     for _ in 1..DISPATCH_BATCH {
                         match ingest.try_recv() {
-                            Ok(Some(inbound)) => {
-                                self.dispatch_with(inbound, &mut decoded, &mut touched)
-                            }
+                            Ok(Some(next)) => self.dispatch_ingest(next, &mut decoded, &mut touched),
                             Ok(None) => {
                                 stop = true;
                                 break;
@@ -41,6 +44,7 @@ impl Engine {
                         self.schedule(&v);
                     }
                     if stop {
+                        self.tell_untold();
                         return;
                     }
                 }
@@ -49,14 +53,44 @@ impl Engine {
                         self.set_members(members);
                     }
                 }
+                default(tell) => {}
             }
+        }
+    }
+
+    /// One item of the ingest channel: an input (its share released), or a report of samples missed.
+    fn dispatch_ingest(
+        &self,
+        ingest: Ingest,
+        decoded: &mut Vec<Measurement>,
+        touched: &mut Vec<Arc<Vehicle>>,
+    ) {
+        match ingest {
+            Ingest::Input {
+                inbound,
+                sequenced,
+                held,
+            } => {
+                self.admission.release(held);
+                self.dispatch_with(inbound, sequenced, decoded, touched);
+            }
+            Ingest::Missed { key, count, source } => self.missed(&key, count, &source),
         }
     }
 
     /// Decodes one raw input and queues its measurements on the vehicle (dispatcher thread).
     pub fn dispatch(&self, inbound: Inbound) {
         let mut touched = Vec::new();
-        self.dispatch_with(inbound, &mut Vec::new(), &mut touched);
+        self.dispatch_with(inbound, false, &mut Vec::new(), &mut touched);
+        for v in touched {
+            self.schedule(&v);
+        }
+    }
+
+    /// [`Engine::dispatch`] for any item of the ingest channel (tests hand it what zenoh reports).
+    pub fn dispatch_item(&self, ingest: Ingest) {
+        let mut touched = Vec::new();
+        self.dispatch_ingest(ingest, &mut Vec::new(), &mut touched);
         for v in touched {
             self.schedule(&v);
         }
@@ -64,10 +98,12 @@ impl Engine {
 
     /// [`Engine::dispatch`] with the dispatcher thread's buffer of decoded measurements (its
     /// capacity is kept from one input to the next), pushing the vehicles to schedule on `touched`
-    /// instead of scheduling them.
+    /// instead of scheduling them. `sequenced`: the input carries its publisher's sequence number
+    /// (what a restarted service may be given again, `Engine::skip_redelivered`).
     fn dispatch_with(
         &self,
         inbound: Inbound,
+        sequenced: bool,
         decoded: &mut Vec<Measurement>,
         touched: &mut Vec<Arc<Vehicle>>,
     ) {
@@ -123,9 +159,35 @@ impl Engine {
         if self.used_before(vehicle, leaf, &inbound.payload) {
             return;
         }
-        if let Some(v) = self.accept(vehicle, leaf, &inbound.key, &inbound.payload, decoded) {
+        let accepted = if sequenced {
+            self.accept_sequenced(vehicle, leaf, &inbound.key, &inbound.payload, decoded)
+        } else {
+            self.accept(vehicle, leaf, &inbound.key, &inbound.payload, decoded)
+        };
+        if let Some(v) = accepted {
             touched.push(v);
         }
+    }
+
+    /// [`Engine::accept`] for a sequenced input: what a restored vehicle's checkpoint already held
+    /// is skipped first.
+    fn accept_sequenced(
+        &self,
+        vehicle: &str,
+        leaf: Leaf,
+        key: &str,
+        payload: &[u8],
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
+        decoded.clear();
+        let result = match self.decode(leaf, payload, decoded)? {
+            Ok(n) if n > 0 => match self.skip_redelivered(vehicle, decoded) {
+                0 => return None,
+                kept => Ok(kept),
+            },
+            other => other,
+        };
+        self.queue(vehicle, key, result, decoded)
     }
 
     /// Decodes an input of an owned vehicle and queues its measurements on its inbox, or refuses it

@@ -204,8 +204,33 @@ impl Collector for Scrape {
         counter(
             &mut e,
             "attitude_ingest_overflow",
-            "samples dropped on arrival: the ingest channel was full (no rejection is published)",
+            "inputs refused on arrival for want of room (each told on P/V/rejected as queue_full)",
             load(&c.ingest_overflow),
+        )?;
+        counter(
+            &mut e,
+            "attitude_samples_missed",
+            "puts of the vehicles' inputs zenoh reported lost and not recovered (samples_missed)",
+            load(&c.missed),
+        )?;
+        let a = &engine.admission;
+        counter(
+            &mut e,
+            "attitude_ingest_waited",
+            "inputs of plain publishers that waited for room (back-pressure on their sender)",
+            load(&a.waited),
+        )?;
+        ConstCounter::new(load(&a.waited_ns) as f64 * 1e-9).encode(e.encode_descriptor(
+            "attitude_ingest_wait",
+            "time inputs of plain publishers waited for room",
+            Some(&Unit::Seconds),
+            MetricType::Counter,
+        )?)?;
+        counter(
+            &mut e,
+            "attitude_ingest_redelivered",
+            "samples of restored vehicles delivered again from a publisher's cache after a restart, skipped",
+            load(&a.redelivered),
         )?;
         // Every code, zeros included, so that a rate over a code that has not happened yet exists.
         family(
@@ -395,6 +420,13 @@ impl Scrape {
             "the vehicle's refused inputs by code (codes that occurred)",
             None,
             rejected,
+        )?;
+        family(
+            e,
+            "attitude_vehicle_samples_missed",
+            "puts of the vehicle's inputs zenoh reported lost and not recovered",
+            None,
+            each(&|v| load(&v.missed)),
         )?;
         family(
             e,

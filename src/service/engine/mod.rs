@@ -15,12 +15,14 @@
 
 mod dispatch;
 mod fleet;
+mod ingest;
 mod metrics;
 mod output;
 mod queries;
 mod ros2;
 
 pub use fleet::RoutePlan;
+pub use ingest::{Admission, Held, Ingest};
 
 /// A route's estimates waiting for the next batch to its standby members: by vehicle, whether it is
 /// new since the last batch and the serialised estimate.
@@ -37,8 +39,8 @@ use crate::sensors::Measurement;
 use crate::wire::batch::{self, BatchWriter};
 use crate::wire::{
     decode_batch_into, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
-    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, RejectCode, Rejection, ResetMsg,
-    ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
+    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, IngestHealthMsg, RejectCode,
+    Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
 };
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -72,8 +74,10 @@ pub struct Counters {
     pub processed: AtomicU64,
     pub estimates: AtomicU64,
     pub queries: AtomicU64,
-    /// Samples the subscriber callback could not hand over (the ingest channel was full).
+    /// Inputs refused on arrival for want of room (each told on `P/V/rejected` as `queue_full`).
     pub ingest_overflow: AtomicU64,
+    /// Puts of the vehicles' inputs that zenoh reported lost (`samples_missed`).
+    pub missed: AtomicU64,
     rejected: [AtomicU64; RejectCode::ALL.len()],
     /// Checkpoints: vehicles restored and files skipped at start; files written and failed writes.
     pub restored: AtomicU64,
@@ -126,6 +130,11 @@ pub struct Vehicle {
     /// Late samples fused and the bytes of the history that lets it (for `P/@/health`).
     late_fused: AtomicU64,
     history_bytes: AtomicU64,
+    /// Puts of its inputs zenoh reported lost (since it was created or restored).
+    missed: AtomicU64,
+    /// Restored from a checkpoint: the newest sample time of each stream it held (zenoh may deliver
+    /// those samples again from the publishers' caches; `Engine::skip_redelivered`).
+    restored_newest: Option<[Option<f64>; crate::service::vehicle::STREAMS]>,
     /// Changed since its last checkpoint.
     dirty: AtomicBool,
 }
@@ -152,6 +161,8 @@ impl Vehicle {
             rollbacks: AtomicU64::new(0),
             late_fused: AtomicU64::new(0),
             history_bytes: AtomicU64::new(0),
+            missed: AtomicU64::new(0),
+            restored_newest: None,
             dirty: AtomicBool::new(false),
             state: Mutex::new(state),
         };
@@ -227,6 +238,9 @@ pub struct Engine {
     shard: Option<zenoh::key_expr::OwnedKeyExpr>,
     /// The ROS 2 edge, when `service.ros2` enables it.
     ros2: Option<Arc<super::ros2::Edge>>,
+    /// The subscribers' side of the ingest channel, and the channel (its depth, for `P/@/health`).
+    pub admission: Admission,
+    ingest_depth: crossbeam_channel::Receiver<Option<Ingest>>,
 }
 
 /// What this instance knows of the rest of its fleet (dynamic mode).
@@ -262,8 +276,9 @@ struct FleetState {
 
 /// The running threads of an engine.
 pub struct EngineThreads {
-    /// Where subscriber callbacks hand raw samples (`try_send` only); `None` stops the dispatcher.
-    pub ingest: crossbeam_channel::Sender<Option<Inbound>>,
+    /// Where subscriber callbacks hand raw samples (through [`Admission::offer`]); `None` stops the
+    /// dispatcher.
+    pub ingest: crossbeam_channel::Sender<Option<Ingest>>,
     /// The live members of the fleet, whenever they change (dynamic mode); handled by the dispatcher
     /// in order with the inputs.
     pub members: crossbeam_channel::Sender<BTreeSet<String>>,
@@ -328,7 +343,7 @@ impl Engine {
         outlets: Outlets,
     ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
-        let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Inbound>>(INGEST_CAPACITY);
+        let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Ingest>>(INGEST_CAPACITY);
         let (members_tx, members_rx) = crossbeam_channel::unbounded::<BTreeSet<String>>();
         let workers = config.workers.max(1);
         let keys = Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles);
@@ -348,6 +363,7 @@ impl Engine {
                 .then(|| tokio::sync::watch::Sender::new(RoutePlan::default())),
             ..Default::default()
         };
+        let admission = Admission::new(&config.ingest);
         let engine = Arc::new(Engine {
             keys,
             shard,
@@ -361,6 +377,8 @@ impl Engine {
             sink,
             outlets,
             checkpointing: Mutex::new(()),
+            admission,
+            ingest_depth: ingest_rx.clone(),
         });
         engine.restore()?;
         let dispatcher = {
@@ -440,7 +458,10 @@ impl Engine {
                 self.counters.skipped.fetch_add(1, Ordering::Relaxed);
                 continue;
             }
-            map.insert(id.clone(), Arc::new(Vehicle::new(&id, c.state, c.counters)));
+            let newest = c.state.snapshot().newest;
+            let mut v = Vehicle::new(&id, c.state, c.counters);
+            v.restored_newest = Some(newest);
+            map.insert(id.clone(), Arc::new(v));
             self.counters.restored.fetch_add(1, Ordering::Relaxed);
         }
         tracing::info!(

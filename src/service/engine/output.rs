@@ -137,6 +137,7 @@ impl Engine {
                 e.diagnostics.rejected = rejected.clone();
             }
         }
+        e.diagnostics.missed = v.missed.load(Ordering::Relaxed);
         let out = &v.outlet;
         let outlet = out
             .outlet

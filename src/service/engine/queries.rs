@@ -110,6 +110,16 @@ impl Engine {
                 .iter()
                 .map(|v| v.history_bytes.load(Ordering::Relaxed))
                 .sum(),
+            missed: c.missed.load(Ordering::Relaxed),
+            ingest: IngestHealthMsg {
+                recovery: self.config.ingest.recovery,
+                depth: self.ingest_depth.len(),
+                capacity: INGEST_CAPACITY,
+                waited: self.admission.waited.load(Ordering::Relaxed),
+                wait_s: self.admission.waited_ns.load(Ordering::Relaxed) as f64 * 1e-9,
+                refused: overflow,
+                redelivered: self.admission.redelivered.load(Ordering::Relaxed),
+            },
             checkpoints: self
                 .config
                 .persistence

@@ -12,7 +12,9 @@ quaternion order and frames; :mod:`attitude_client.replay` replays a recorded IM
 
 from importlib import metadata as _metadata
 
-from .client import IMU_BATCH, KINDS, ROUTES, AttitudeClient, ServiceError, attitude_error_deg, route_of
+from .client import (
+    CACHE, HEARTBEAT_S, IMU_BATCH, KINDS, ROUTES, AttitudeClient, ServiceError, attitude_error_deg, route_of,
+)
 from .estimate import Estimate, attitude_matrix
 from .stream import EstimateStream, MessageStream
 
@@ -23,8 +25,10 @@ except _metadata.PackageNotFoundError:  # imported from a source tree that is no
 
 __all__ = [
     "AttitudeClient",
+    "CACHE",
     "Estimate",
     "EstimateStream",
+    "HEARTBEAT_S",
     "IMU_BATCH",
     "KINDS",
     "MessageStream",

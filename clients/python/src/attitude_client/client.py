@@ -22,6 +22,14 @@ a query right after a put may not reflect it yet (wait for its estimate instead)
 :meth:`AttitudeClient.wait_for_service` before publishing: zenoh drops puts that it does not know a
 subscriber for yet.
 
+Inputs go through zenoh-ext **advanced publishers** (one per key, made at its first put): each put carries a
+sequence number, the last ``cache`` puts of each key stay in the client's memory, and a heartbeat every
+``heartbeat_s`` tells the service the newest number. A put lost on the way (a link that drops, a reconnection, a
+restart of the service within the cache) is then detected by the service and fetched again from the cache;
+what cannot be is reported on ``P/V/rejected`` (``samples_missed``). ``recovery=False`` sends plain puts instead
+(``proto/README.md``, "Loss, recovery and back-pressure"). Puts use congestion control ``BLOCK``: a service
+that cannot keep up slows the sender rather than losing its puts.
+
 Keys are ``P/V/<leaf>`` with ``P`` the service's key prefix (``prefix``, default ``attitude``) and ``V`` a
 vehicle id (1-64 characters of ``[A-Za-z0-9_-]``). With ``routed=True`` (for a dynamic fleet of services,
 ``serve --fleet``) inputs go on their routed keys ``P/V/<leaf>/<r>`` instead, ``r`` the vehicle's route
@@ -58,11 +66,15 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import zenoh
+import zenoh.ext
 
 from .estimate import Estimate
 from .stream import EstimateStream, MessageStream
 
-__all__ = ["AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "ROUTES", "attitude_error_deg", "route_of"]
+__all__ = [
+    "AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "ROUTES", "CACHE", "HEARTBEAT_S", "attitude_error_deg",
+    "route_of",
+]
 
 log = logging.getLogger("attitude_client")
 
@@ -75,6 +87,14 @@ _JSON = zenoh.Encoding.APPLICATION_JSON
 #: well inside the service's default ``limits.input`` (1 MiB, 10 000 items per batch).
 IMU_BATCH = 500
 
+
+#: Puts kept per input key for the service to fetch again (advanced publishers): at ``IMU_BATCH`` samples per put
+#: and 100 Hz, over 20 minutes of a vehicle's samples; 256 puts of 500 samples are about 20 MB.
+CACHE = 256
+
+#: Seconds between an advanced publisher's heartbeats (sent only when it put something since): the longest
+#: before the service notices that the last put of a burst was lost and fetches it.
+HEARTBEAT_S = 0.25
 
 #: Routes of the vehicles: a routed key's last chunk is one of ``0``..``f``.
 ROUTES = 16
@@ -198,7 +218,10 @@ class AttitudeClient:
     scouting off. ``prefix``: the service's key prefix (``service.key_prefix``). ``timeout``: default
     timeout of queries, s. ``config``: an optional ``zenoh.Config`` used instead of the one built here.
     ``routed``: send inputs on their routed keys and batched for a fleet's standby members (see the module's
-    text), the batches every ``flush_s`` seconds from a thread of the client's.
+    text), the batches every ``flush_s`` seconds from a thread of the client's. ``recovery``: send inputs
+    through advanced publishers that keep their last ``cache`` puts per key and send a heartbeat every
+    ``heartbeat_s`` (see the module's text); False: plain puts. (Routed inputs are plain puts: a fleet's
+    route subscriptions are plain.)
     """
 
     def __init__(
@@ -210,6 +233,9 @@ class AttitudeClient:
         config: zenoh.Config | None = None,
         routed: bool = False,
         flush_s: float = 0.25,
+        recovery: bool = True,
+        cache: int = CACHE,
+        heartbeat_s: float = HEARTBEAT_S,
     ):
         prefix = prefix.strip("/")
         if not prefix or any(c in prefix for c in "*$?#"):
@@ -225,6 +251,13 @@ class AttitudeClient:
                 config.insert_json5("connect/endpoints", json.dumps([endpoint]))
             else:
                 config.insert_json5("listen/endpoints", json.dumps([endpoint]))
+        self.recovery = bool(recovery)
+        if self.recovery and not (int(cache) >= 1 and heartbeat_s > 0):
+            raise ValueError("cache must be at least 1 and heartbeat_s positive")
+        self.cache = int(cache)
+        self.heartbeat_s = float(heartbeat_s)
+        self._publishers: dict[str, Any] = {}
+        self._publishers_lock = threading.Lock()
         self.session = zenoh.open(config)
         self.routed = bool(routed)
         self._batches: dict[int, list[bytes]] = {}
@@ -260,7 +293,14 @@ class AttitudeClient:
             self._flusher = None
             if not self.session.is_closed():
                 self.flush()
+        with self._publishers_lock:
+            publishers, self._publishers = self._publishers, {}
         if not self.session.is_closed():
+            for p in publishers.values():
+                try:
+                    p.undeclare()
+                except Exception:  # the session closed under us
+                    pass
             self.session.close()
 
     def __enter__(self) -> "AttitudeClient":
@@ -304,10 +344,33 @@ class AttitudeClient:
     # ------------------------------------------------------------------------------------------
     # Inputs
 
+    def publisher(self, key: str):
+        """The advanced publisher of ``key`` (declared at its first use): cache of ``cache`` puts, sample-miss
+        detection with a sporadic heartbeat every ``heartbeat_s``, detectable by the service (which then asks
+        its cache for what it missed), congestion control ``BLOCK``."""
+        with self._publishers_lock:
+            p = self._publishers.get(key)
+            if p is None:
+                p = zenoh.ext.declare_advanced_publisher(
+                    self.session,
+                    key,
+                    encoding=_JSON,
+                    congestion_control=zenoh.CongestionControl.BLOCK,
+                    cache=zenoh.ext.CacheConfig(max_samples=self.cache),
+                    sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=self.heartbeat_s),
+                    publisher_detection=True,
+                )
+                self._publishers[key] = p
+            return p
+
     def put_raw(self, vehicle: str, leaf: str, payload: bytes | str) -> None:
-        """Puts ``payload`` on ``P/V/<leaf>`` as is (for tools and tests; no validation); a routed client
-        puts an input on ``P/V/<leaf>/<r>`` and adds it to its route's next batch."""
+        """Puts ``payload`` on ``P/V/<leaf>`` as is (for tools and tests; no validation), through the key's
+        advanced publisher (``recovery``); a routed client puts an input on ``P/V/<leaf>/<r>`` and adds it to
+        its route's next batch."""
         routed = self.routed and leaf in _INPUTS
+        if self.recovery and not routed and leaf in _INPUTS:
+            self.publisher(self.key(vehicle, leaf)).put(payload)
+            return
         self.session.put(
             self.routed_key(vehicle, leaf) if routed else self.key(vehicle, leaf),
             payload,

@@ -18,7 +18,8 @@ What it does (it never starts the service):
 2. Streams the raw samples into one vehicle per ``--filters`` entry, one vehicle after the other (each configured
    by a reset request, e.g. ``{"filter": "qpf", "fiducial": "average", "particles": N}``), on ``P/V/imu``: batches of
    ``--batch`` samples ``{"t": t_k, "gyr", "acc", "mag"}`` (body frame; sample k's rate covers ``(t_{k−1}, t_k]``),
-   in time order, as fast as the service takes them. The client computes nothing else: the service derives
+   in time order, as fast as the service takes them, through advanced publishers (a put lost on the way is fetched
+   again from their cache, ``--cache`` puts; ``--plain`` for plain puts). The client computes nothing else: the service derives
    gravity, the magnetic reference and the noise models from the samples (``service.imu``, ``crates/attitude-core/src/ahrs``). Flow
    control: at most ``--window`` samples per vehicle are in flight (sent, no estimate yet); rejections on
    ``P/V/rejected`` are counted (a ``queue_full`` means the window is too large for the service's
@@ -66,7 +67,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from .client import AttitudeClient
+from .client import CACHE, AttitudeClient
 
 ATTRIBUTION = (
     "Data: BROAD (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0."
@@ -661,6 +662,11 @@ def main() -> int:
     ap.add_argument("--pause", type=float, default=0.0,
                     help="seconds between batches (another arrival timing; the estimates must not change)")
     ap.add_argument("--no-peers", action="store_true", help="skip VQF and Madgwick")
+    ap.add_argument("--cache", type=int, default=CACHE,
+                    help=f"puts each input key keeps for the service to fetch again when one is lost (advanced "
+                         f"publishers, default {CACHE})")
+    ap.add_argument("--plain", action="store_true",
+                    help="plain puts instead of advanced publishers (no recovery of a lost put)")
     ap.add_argument("--details", type=Path, help="write the run's particulars here (JSON)")
     args = ap.parse_args()
     if args.batch < 1 or args.window < args.batch or args.particles < 1 or args.copies < 1 or args.pause < 0:
@@ -672,7 +678,8 @@ def main() -> int:
         raise SystemExit(f"{args.trial}: needs opt_quat and movement samples to score")
     specs = [s.strip() for s in args.filters.split(",") if s.strip()]
 
-    with AttitudeClient(args.connect, prefix=args.prefix, timeout=10.0) as client:
+    with AttitudeClient(args.connect, prefix=args.prefix, timeout=10.0, recovery=not args.plain,
+                        cache=args.cache) as client:
         client.wait_for_service(timeout=20.0)
         # One vehicle after the other: on a small machine a particle filter running beside the MEKF delays the
         # service's dispatch, and the two compete for the cores the timings measure.

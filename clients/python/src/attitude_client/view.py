@@ -97,6 +97,7 @@ REJECTION_CODES = (
     "mixed_inputs",
     "filter_error",
     "wrong_route",
+    "samples_missed",
     "internal",
 )
 
