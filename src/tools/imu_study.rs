@@ -429,7 +429,7 @@ pub fn feed_trial(
                 Event::Rejected(_, r) => {
                     *fed.rejected.entry(r.code.as_str().to_string()).or_insert(0) += 1;
                 }
-                Event::Processed(_) => {}
+                Event::Processed(_) | Event::Gap(..) => {}
             }
         }
         events.clear();

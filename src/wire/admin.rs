@@ -70,6 +70,13 @@ pub struct HealthMsg {
     /// (`samples_missed`).
     #[serde(default)]
     pub missed: u64,
+    /// Gaps in the vehicles' gyro or raw-IMU samples (each bridged, paid for in the covariance and
+    /// told as `gap`), and the seconds the raw-IMU ones hid, summed (since each was created or
+    /// restored).
+    #[serde(default)]
+    pub gaps: u64,
+    #[serde(default)]
+    pub blind_s: f64,
     /// How inputs get from zenoh to the vehicles: recovery, back-pressure, refusals.
     #[serde(default)]
     pub ingest: IngestHealthMsg,

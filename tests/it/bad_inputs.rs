@@ -48,6 +48,12 @@ const NOT_FROM_INPUTS: &[(RejectCode, &str)] = &[
          know; an input creates its vehicle, and a reset of an unknown vehicle creates it or says why not",
     ),
     (
+        RejectCode::Gap,
+        "not a refusal: told when a gyro or raw-IMU sample after a gap in its stream was used (the \
+         gap bridged and paid for in the covariance); no input is wrong, and the vehicle's filter \
+         changes by design (the vehicle's tests in attitude-core check the event and its counts)",
+    ),
+    (
         RejectCode::Internal,
         "a failure inside the service (e.g. a reset its vehicle's worker did not answer within 10 s), \
          not something an input can be",

@@ -25,10 +25,11 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-const VERSION: u32 = 5;
-/// Formats before this one, kept to show they are refused: 3 (bincode of the core's own types) and 4
-/// (no SGHQF, no sparse-grid level), each with the two vehicles it had.
-const OLD_VERSIONS: [u32; 2] = [3, 4];
+const VERSION: u32 = 6;
+/// Formats before this one, kept to show they are refused: 3 (bincode of the core's own types), 4
+/// (no SGHQF, no sparse-grid level) and 5 (no gyro channel, datasheet or measured noise), each with
+/// the two vehicles it had.
+const OLD_VERSIONS: [u32; 3] = [3, 4, 5];
 const OLD_NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
 
 fn dir() -> PathBuf {

@@ -21,8 +21,8 @@ use attitude_service::attitude::{q_method, Quaternion};
 use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
-    ImuDiagnosticsMsg, ImuMsg, IngestHealthMsg, InputLimits, MeasuredNoiseMsg, ObservationMsg, PerAxis,
-    QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
+    ImuDiagnosticsMsg, ImuMsg, IngestHealthMsg, InputLimits, MeasuredNoiseMsg, ObservationMsg,
+    PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
     VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
@@ -556,6 +556,8 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         late_fused: 4,
         history_bytes: 123456,
         missed: 3,
+        gaps: 2,
+        blind_s: 0.4,
         ingest: IngestHealthMsg {
             recovery: true,
             depth: 1,

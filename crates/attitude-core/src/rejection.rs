@@ -61,12 +61,15 @@ pub enum RejectCode {
     /// Not a refusal of one input: zenoh reports puts of the vehicle's input key lost between an
     /// advanced publisher and the service, and its cache could not give them back.
     SamplesMissed,
+    /// Not a refusal: the sample came after a gap in its stream (more than three usual intervals
+    /// without one); it was used, the gap bridged and paid for in the covariance.
+    Gap,
     /// Something failed inside the service.
     Internal,
 }
 
 impl RejectCode {
-    pub const ALL: [RejectCode; 22] = [
+    pub const ALL: [RejectCode; 23] = [
         RejectCode::InvalidUtf8,
         RejectCode::InvalidJson,
         RejectCode::BadRequest,
@@ -88,6 +91,7 @@ impl RejectCode {
         RejectCode::FilterError,
         RejectCode::WrongRoute,
         RejectCode::SamplesMissed,
+        RejectCode::Gap,
         RejectCode::Internal,
     ];
 
@@ -114,6 +118,7 @@ impl RejectCode {
             RejectCode::FilterError => "filter_error",
             RejectCode::WrongRoute => "wrong_route",
             RejectCode::SamplesMissed => "samples_missed",
+            RejectCode::Gap => "gap",
             RejectCode::Internal => "internal",
         }
     }

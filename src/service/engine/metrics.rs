@@ -423,6 +423,28 @@ impl Scrape {
         )?;
         family(
             e,
+            "attitude_vehicle_gaps",
+            "gaps in the vehicle's gyro or raw-IMU samples, bridged and paid for in the covariance (gap)",
+            None,
+            each(&|v| load(&v.gaps)),
+        )?;
+        family(
+            e,
+            "attitude_vehicle_blind",
+            "seconds the gaps in the vehicle's raw-IMU samples hid",
+            Some(&Unit::Seconds),
+            shown
+                .iter()
+                .map(|v| {
+                    (
+                        [("vehicle", v.id.clone())],
+                        ConstCounter::new(load(&v.blind_us) as f64 * 1e-6),
+                    )
+                })
+                .collect::<Vec<_>>(),
+        )?;
+        family(
+            e,
             "attitude_vehicle_samples_missed",
             "puts of the vehicle's inputs zenoh reported lost and not recovered",
             None,

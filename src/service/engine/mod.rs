@@ -132,6 +132,9 @@ pub struct Vehicle {
     history_bytes: AtomicU64,
     /// Puts of its inputs zenoh reported lost (since it was created or restored).
     missed: AtomicU64,
+    /// Gaps in its gyro or raw-IMU samples, and the µs the raw-IMU ones hid (`Totals`).
+    gaps: AtomicU64,
+    blind_us: AtomicU64,
     /// Restored from a checkpoint: the newest sample time of each stream it held (zenoh may deliver
     /// those samples again from the publishers' caches; `Engine::skip_redelivered`).
     restored_newest: Option<[Option<f64>; crate::service::vehicle::STREAMS]>,
@@ -162,6 +165,8 @@ impl Vehicle {
             late_fused: AtomicU64::new(0),
             history_bytes: AtomicU64::new(0),
             missed: AtomicU64::new(0),
+            gaps: AtomicU64::new(0),
+            blind_us: AtomicU64::new(0),
             restored_newest: None,
             dirty: AtomicBool::new(false),
             state: Mutex::new(state),
@@ -182,6 +187,9 @@ impl Vehicle {
         self.late_fused.store(t.late_fused, Ordering::Relaxed);
         self.history_bytes
             .store(t.history_bytes as u64, Ordering::Relaxed);
+        self.gaps.store(t.gaps, Ordering::Relaxed);
+        self.blind_us
+            .store((t.blind_s * 1e6) as u64, Ordering::Relaxed);
     }
 
     fn counters(&self) -> SavedCounters {
@@ -732,7 +740,7 @@ impl Engine {
                     v.processed.fetch_add(1, Ordering::Relaxed);
                     self.counters.processed.fetch_add(1, Ordering::Relaxed);
                 }
-                Event::Rejected(stream, r) => {
+                Event::Rejected(stream, r) | Event::Gap(stream, r) => {
                     self.reject(&v.id, &self.stream_key(&v.id, stream), &r)
                 }
                 Event::Estimate(p) => {

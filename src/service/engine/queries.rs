@@ -111,6 +111,15 @@ impl Engine {
                 .map(|v| v.history_bytes.load(Ordering::Relaxed))
                 .sum(),
             missed: c.missed.load(Ordering::Relaxed),
+            gaps: vehicles
+                .iter()
+                .map(|v| v.gaps.load(Ordering::Relaxed))
+                .sum(),
+            blind_s: vehicles
+                .iter()
+                .map(|v| v.blind_us.load(Ordering::Relaxed))
+                .sum::<u64>() as f64
+                * 1e-6,
             ingest: IngestHealthMsg {
                 recovery: self.config.ingest.recovery,
                 depth: self.ingest_depth.len(),

@@ -26,7 +26,10 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// of the core types themselves, which cannot be read without them: refused).
 /// 5: a filter may be the SGHQF (a new variant of the filter state) and every filter configuration
 /// holds its sparse-grid level (4 cannot say either: refused).
-pub const VERSION: u32 = 5;
+/// 6: the raw-IMU pipeline holds the gyro channel (saturation, gaps), the datasheet, the measured
+/// noise and the field reference's confirmation; a vehicle's configuration its datasheet (5 cannot
+/// say them: refused).
+pub const VERSION: u32 = 6;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 

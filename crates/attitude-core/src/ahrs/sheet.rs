@@ -228,7 +228,7 @@ mod tests {
     fn measures_known_white_noise() {
         let mut rng = crate::rng::Xoshiro256PlusPlus::seed_from_u64(3);
         let rate = 200.0;
-        let dt = 1.0 / rate;
+        let dt: f64 = 1.0 / rate;
         let gyro_nd = 0.01f64.to_radians(); // 0.01 °/s/√Hz
         let acc_nd = 150e-6 * STANDARD_G; // 150 µg/√Hz
         let ng = Normal::new(0.0, gyro_nd / dt.sqrt()).unwrap();

@@ -127,6 +127,14 @@ impl<F: FilterCore> Driver<F> {
     /// A gyro sample after its validation: propagates to its time, then holds its rate.
     #[inline]
     fn take_gyro(&mut self, g: &GyroSample) -> Result<(), FilterError> {
+        // A sample after a gap: what is left of the gap is bridged by the mean of the rates on both
+        // sides (the rotation of a rate that changed evenly across it), not the earlier rate held;
+        // the gap's inflation covers what a rate between them could have done besides.
+        if self.gap_at(g.t_s).is_some() {
+            if let Some(w) = self.omega_meas_rad_s {
+                self.omega_meas_rad_s = Some(0.5 * (w + g.omega_body_rad_s));
+            }
+        }
         self.propagate_to(g.t_s)?;
         if let Some(tg) = self.last_gyro_t_s {
             let dt = g.t_s - tg;
@@ -227,6 +235,10 @@ impl<F: FilterCore> AttitudeFilter for Driver<F> {
 
     fn time_s(&self) -> Option<f64> {
         self.t_s
+    }
+
+    fn gyro_gaps(&self) -> u64 {
+        self.gyro_gaps
     }
 
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError> {

@@ -319,6 +319,8 @@ pub trait AttitudeFilter: Send {
     fn spec(&self) -> FilterSpec;
     /// The filter's time, s (`None` before the first measurement when no start time was given).
     fn time_s(&self) -> Option<f64>;
+    /// Gaps in the gyro samples so far (`filter.gap`): each bridged and paid for in the covariance.
+    fn gyro_gaps(&self) -> u64;
     /// Propagates to the measurement's time, then uses it.
     fn process(&mut self, measurement: &Measurement) -> Result<(), FilterError>;
     /// Propagates to `t_s` (no later than the next measurement's time) without using a measurement.

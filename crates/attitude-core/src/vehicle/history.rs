@@ -439,7 +439,10 @@ impl VehicleState {
         if again {
             let mut i = from;
             while i < out.len() {
-                if matches!(out[i], Event::Processed(_) | Event::Rejected(..)) {
+                if matches!(
+                    out[i],
+                    Event::Processed(_) | Event::Rejected(..) | Event::Gap(..)
+                ) {
                     out.remove(i);
                 } else {
                     i += 1;

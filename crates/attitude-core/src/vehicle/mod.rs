@@ -90,6 +90,9 @@ pub enum Event {
     Rejected(Stream, Rejection),
     /// A new estimate to publish on `P/V/estimate`.
     Estimate(Published),
+    /// A sample came after a gap in its stream (no sample for more than three usual intervals): the
+    /// estimator bridged it and grew the covariance; told on `P/V/rejected` with the code `gap`.
+    Gap(Stream, Rejection),
 }
 
 enum Slot {
@@ -114,13 +117,17 @@ pub struct JumpCandidate {
 }
 
 /// A vehicle's gate, re-initialisation, rollback and late-sample counts, and its history's bytes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Totals {
     pub gated: u64,
     pub reinits: u64,
     pub rollbacks: u64,
     pub late_fused: u64,
     pub history_bytes: usize,
+    /// Gaps in the gyro or raw-IMU samples (bridged and paid for in the covariance), and the seconds
+    /// the raw-IMU ones hid.
+    pub gaps: u64,
+    pub blind_s: f64,
 }
 
 /// A vehicle's complete state.
@@ -349,6 +356,18 @@ impl VehicleState {
             rollbacks: self.rollbacks,
             late_fused: self.late_fused,
             history_bytes: self.history.bytes(),
+            gaps: self.gaps().0,
+            blind_s: self.gaps().1,
+        }
+    }
+
+    /// Gaps in the vehicle's gyro feed so far (the raw-IMU pipeline's or the filter's), and the
+    /// seconds the raw-IMU ones hid.
+    fn gaps(&self) -> (u64, f64) {
+        match (&self.ahrs, &self.slot) {
+            (Some(a), _) => (a.counts().gaps, a.counts().blind_s),
+            (None, Slot::Tracking(f)) => (f.gyro_gaps(), 0.0),
+            (None, Slot::Initializing) => (0, 0.0),
         }
     }
 
@@ -613,6 +632,8 @@ impl VehicleState {
     fn process(&mut self, m: Measurement, policy: &Policy, out: &mut Vec<Event>) {
         let stream = stream_of(&m);
         let t = m.t_s();
+        let (gaps_before, blind_before) = self.gaps();
+        let previous_gyro_t = self.last_gyro.map(|g| g.t_s);
         // (An IMU vehicle aligns from its samples, whatever the filter's init mode.)
         if !self.is_tracking() && self.config.init == InitMode::Uniform && stream != Stream::Imu {
             // A particle filter that starts from a uniformly random attitude at its first sample.
@@ -644,6 +665,23 @@ impl VehicleState {
             Ok(()) => {
                 self.last_t = Some(newest.map_or(t, |l| l.max(t)));
                 out.push(Event::Processed(stream));
+                let (gaps, blind) = self.gaps();
+                if gaps > gaps_before && !self.replaying {
+                    let hid = match stream {
+                        Stream::Imu => format!("{:.3} s without a sample", blind - blind_before),
+                        _ => previous_gyro_t.map_or_else(
+                            || "a gap".to_string(),
+                            |p| format!("{:.3} s since the previous sample", t - p),
+                        ),
+                    };
+                    out.push(Event::Gap(
+                        stream,
+                        Rejection::new(
+                            RejectCode::Gap,
+                            format!("a gap before t = {t} s ({hid}): bridged by the rates on both sides, the covariance grown by what the body could have turned; the sample was used"),
+                        ),
+                    ));
+                }
             }
             Err(r) => {
                 self.last_t = newest;

@@ -48,6 +48,7 @@ fn config(spec: &str) -> VehicleFilterConfig {
         filter,
         init: InitMode::Vectors,
         init_bias_sigma_rad_s: Vector3::repeat(10.0 * std::f64::consts::PI / 180.0 / 3600.0),
+        sensor: Default::default(),
     }
 }
 
@@ -101,7 +102,7 @@ fn run(
                 last.insert(p.seq, fused(&p));
             }
             Event::Rejected(_, r) => refused.push(r.code),
-            Event::Processed(_) => {}
+            Event::Processed(_) | Event::Gap(..) => {}
         }
     }
     (last, refused, published)
@@ -455,7 +456,7 @@ fn the_history_costs_what_the_documentation_says() {
         ("usque", 0, 2_700, 30_000, &arrivals),
         ("qpf:average", 1000, 2_700 + 64_000, 550_000, &arrivals),
         ("qpf:average", 10_000, 2_700 + 640_000, 5_200_000, &arrivals),
-        ("mekf", 0, 4_700, 75_000, &imu),
+        ("mekf", 0, 5_200, 75_000, &imu),
     ] {
         let mut c = config(spec);
         c.filter.particles = particles.max(2);
@@ -477,4 +478,55 @@ fn the_history_costs_what_the_documentation_says() {
             "{spec}: {kept} states"
         );
     }
+}
+
+/// Feeds `ms` in order and returns the gap events' messages.
+fn gap_events(v: &mut VehicleState, ms: &[Measurement]) -> Vec<String> {
+    let p = in_order_policy();
+    let mut out = Vec::new();
+    for m in ms {
+        v.on_measurement(m.clone(), 0.0, &p, &mut out).unwrap();
+    }
+    v.on_tick(f64::INFINITY, &p, &mut out);
+    out.iter()
+        .filter_map(|e| match e {
+            Event::Gap(_, r) => {
+                assert_eq!(r.code, RejectCode::Gap);
+                Some(r.message.clone())
+            }
+            Event::Rejected(_, r) => panic!("refused: {r:?}"),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_gap_in_the_samples_is_told_once_and_counted() {
+    // Raw IMU at 100 Hz with 0.5 s missing after t = 5 s.
+    let ms: Vec<_> = imu_samples(10.0)
+        .into_iter()
+        .filter(|m| !(m.t_s() > 5.0 && m.t_s() < 5.5 - 1e-9))
+        .collect();
+    let mut v = VehicleState::new("imu", config("mekf"));
+    let told = gap_events(&mut v, &ms);
+    assert_eq!(told.len(), 1, "{told:?}");
+    assert!(told[0].contains("t = 5.5"), "{}", told[0]);
+    let t = v.totals();
+    assert_eq!(t.gaps, 1);
+    assert!((t.blind_s - 0.49).abs() < 0.02, "{}", t.blind_s);
+
+    // A gyro feed at 10 Hz with 1 s missing: one gap, and none in the same feed without it.
+    let all = spacecraft(30.0);
+    let cut: Vec<_> = all
+        .iter()
+        .filter(|m| !(matches!(m, Measurement::Gyro(_)) && m.t_s() > 10.05 && m.t_s() < 11.05))
+        .cloned()
+        .collect();
+    let mut v = VehicleState::new("sc", config("mekf"));
+    let told = gap_events(&mut v, &cut);
+    assert_eq!(told.len(), 1, "{told:?}");
+    assert_eq!(v.totals().gaps, 1);
+    let mut v = VehicleState::new("sc", config("mekf"));
+    assert!(gap_events(&mut v, &all).is_empty());
+    assert_eq!(v.totals().gaps, 0);
 }
