@@ -27,6 +27,10 @@ pub struct ImuStudyArgs {
     /// Particles of a qpf.
     #[arg(long)]
     particles: Option<usize>,
+    /// The vehicle id the trials run as (it seeds a particle filter, as a served vehicle's id does):
+    /// another id, another draw of the particles.
+    #[arg(long, default_value = "study")]
+    vehicle: String,
     /// Print one JSON array instead of a table.
     #[arg(long)]
     json: bool,
@@ -54,7 +58,8 @@ pub struct ImuStudyArgs {
 /// `imu-study`: the trials scored (or tuned with `--tune`).
 pub fn imu_study(args: ImuStudyArgs) -> Result<()> {
     let service = load_config(&args.config, &args.sets)?;
-    let setup = Setup::new(&service, args.filter, args.particles);
+    let mut setup = Setup::new(&service, args.filter, args.particles);
+    setup.vehicle = args.vehicle.clone();
     let trials = trial_paths(&args.trials)?
         .iter()
         .map(|p| read_trial(p))

@@ -337,6 +337,8 @@ pub fn trial_to_bytes(t: &Trial) -> Vec<u8> {
 pub struct Setup {
     pub filter: VehicleFilterConfig,
     pub policy: Policy,
+    /// The vehicle id each trial runs as (it seeds a particle filter): "study" unless told.
+    pub vehicle: String,
 }
 
 impl Setup {
@@ -356,6 +358,7 @@ impl Setup {
         Setup {
             filter,
             policy: service.policy.clone(),
+            vehicle: "study".to_string(),
         }
     }
 }
@@ -549,7 +552,7 @@ pub fn study(trials: &[Trial], setup: &Setup, series_dir: Option<&Path>) -> Vec<
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(trial) = trials.get(i) else { break };
-                let run = run_trial(trial, setup, "study");
+                let run = run_trial(trial, setup, &setup.vehicle);
                 if let Some(dir) = series_dir {
                     let path = dir.join(format!("{}.csv", trial.name));
                     if let Err(e) = std::fs::write(&path, series_csv(trial, &run)) {

@@ -487,7 +487,7 @@ fn the_tilt_covariance_is_honest_under_motion() {
         let median = nees[nees.len() / 2];
         eprintln!("{spec}: tilt inside 99% {inside:.4}, median NEES {median:.3}");
         assert!(inside > 0.97, "{spec}: {inside} inside");
-        let scale_ok = |m: f64| (0.7..=1.9).contains(&m);
+        let scale_ok = |m: f64| (0.8..=2.0).contains(&m);
         assert!(scale_ok(median), "{spec}: median NEES {median}");
         // The bound's power: the same estimates with the covariance 1.5× too small or too large in σ.
         for scale in [2.25, 1.0 / 2.25] {
@@ -607,9 +607,10 @@ fn a_consistent_new_field_is_accepted() {
 /// A magnet attached to the body (a 20 µT offset) from t = 10 s: the offset is found while the body
 /// turns, accepted and refined, and the heading over the last 40 s is several times better than with
 /// the hard-iron model off (the field then stays disturbed, rejected, and finally used down-weighted);
-/// in an undisturbed field no offset is ever accepted. Measured (seed 9): 0.549° with, 69.7° without;
-/// over IMU seeds 9, 109, …, 1109 the RMS with the fit is 0.39–0.67°, so the bound of 0.8° lies
-/// between that spread and 1.5× this seed's figure (0.82°).
+/// in an undisturbed field no offset is ever accepted. Measured (seed 9) with the preset before issue
+/// 26: 0.549° with, 69.7° without (over IMU seeds 9, 109, …, 1109: 0.39–0.67° with); with the preset of
+/// issue 26 (a heading σ of 1.7°, correlated over 10 s, and a fit accepted only when it explains the
+/// readings twice as well): 1.13° with, 8.86° without, hence the bounds 1.2° and 5×.
 #[test]
 fn a_magnet_on_the_body_is_calibrated_out() {
     let (f, p) = imu_preset();
@@ -639,7 +640,7 @@ fn a_magnet_on_the_body_is_calibrated_out() {
     let (without, _) = heading_rms(&off);
     eprintln!("heading RMS {with}° with the hard-iron fit, {without}° without");
     assert!(
-        with < 0.8 && without > 3.0 * with,
+        with < 1.2 && without > 5.0 * with,
         "heading RMS {with}° with, {without}° without"
     );
 
@@ -720,13 +721,11 @@ fn variance_floors_hold() {
 
 /// Re-acquisition: a filter that is 15° off in tilt while claiming 0.01° (started so by a reset, with a
 /// bias it is sure of too), with the variance floors off so that nothing else widens it, sees its tilt innovations stay inconsistent,
-/// widens its tilt covariance (counted) and follows the accelerometer back to the truth; without the
-/// re-acquisition it is still far off at the same time.
+/// widens its tilt covariance (counted) and follows the accelerometer back to the truth.
 ///
-/// Measured (IMU seed 13): 0.909° with the re-acquisition, 2.11° without. The test holds for this
-/// seed only: on each of seeds 113, 213, …, 1113 it fails, five times because the error with the
-/// re-acquisition is above 1° at 15 s (0.82–0.98° where it is not) and six times because the error
-/// without it is not above 1.5° (0.09–1.7°, often smaller than with it). A finding, left as it is.
+/// Measured (IMU seed 13) with the preset before issue 26: 0.909° with the re-acquisition, 2.11°
+/// without (on other seeds the error without it was 0.09–1.7°, often smaller than with it: a finding,
+/// left as it was); with the preset of issue 26 the filter comes back without it too (below).
 #[test]
 fn an_overconfident_tilt_is_reacquired() {
     let (mut f, mut p) = imu_preset();
@@ -759,13 +758,10 @@ fn an_overconfident_tilt_is_reacquired() {
     let (err, d) = run(&p);
     assert!(d.tilt_reacquisitions >= 1, "{d:?}");
     assert!(err < 1.0, "tilt error {err}°");
-    let mut never = p.clone();
-    never.imu.recovery.after_s = 1e9;
-    let (stuck, _) = run(&never);
-    assert!(
-        stuck > 1.5 && stuck > 2.0 * err,
-        "without re-acquisition: {stuck}°"
-    );
+    // Without the re-acquisition the preset of issue 26 comes back too (0.10° at 15 s, 0.01° with the
+    // accelerometer's σ of the preset before it, which was stuck at 2.11°): what else widens the tilt
+    // now (the gyro channel's terms, the published instant) is enough here. The re-acquisition is
+    // still what a filter needs that claims far less than its error; the test checks it acts.
 }
 
 /// The published covariance adds the time-stamp uncertainty `σ_t² ω ωᵀ` to the filter's: the same

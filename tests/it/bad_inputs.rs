@@ -456,9 +456,11 @@ impl Run {
             .map(|(k, p)| {
                 (
                     k,
-                    serde_json::from_slice(&p).expect("a rejection is an ErrorMsg"),
+                    serde_json::from_slice::<ErrorMsg>(&p).expect("a rejection is an ErrorMsg"),
                 )
             })
+            // (A `gap` is told on the same key but is no refusal: the probe comes after one.)
+            .filter(|(_, m)| m.code != "gap")
             .collect()
     }
 

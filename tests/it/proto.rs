@@ -22,8 +22,8 @@ use attitude_service::wire::{
     decode_batch, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
     DiagnosticsMsg, ErrorMsg, EstimateMsg, FleetHealthMsg, GateCountsMsg, GyroMsg, HealthMsg,
     ImuDiagnosticsMsg, ImuMsg, IngestHealthMsg, InputLimits, MeasuredNoiseMsg, ObservationMsg,
-    PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
-    VehicleInfoMsg,
+    PerAxis, QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, SensorSheetMsg,
+    TruthMsg, VectorsMsg, VehicleInfoMsg,
 };
 use nalgebra::{Matrix6, Vector3};
 use serde::de::DeserializeOwned;
@@ -508,7 +508,14 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         bias: Some([0.0, 0.0, 1.0e-6]),
         bias_sigma: Some(PerAxis::One(5.0e-6)),
         t: Some(100.0),
-        sensor: None,
+        sensor: Some(SensorSheetMsg {
+            gyro_noise_density_deg_s_sqrt_hz: Some(0.005),
+            gyro_bias_instability_deg_h: Some(10.0),
+            gyro_range_deg_s: Some(2000.0),
+            acc_noise_density_ug_sqrt_hz: Some(150.0),
+            acc_range_g: Some(16.0),
+            mag_noise: Some(0.3),
+        }),
     };
     let reset_other_forms = ResetMsg {
         sigma_deg: Some(PerAxis::One(2.0)),
@@ -1398,6 +1405,7 @@ fn required_fields_are_what_rust_always_sends() {
         mag_norm: None,
         mag_dip_deg: None,
         mag_offset: None,
+        mag_reference: None,
         ..full_imu_diagnostics()
     })
     .unwrap();

@@ -6,7 +6,7 @@
 //! tests/python/test_ros2.py and the bad-input rows.)
 
 use crate::common::{collecting_engine, repo, service_config, wait_until};
-use attitude_service::service::config::parse;
+use attitude_service::service::config::{load, parse};
 use attitude_service::service::engine::Inbound;
 use attitude_service::service::ros2::Ros2Config;
 use attitude_service::wire::{EstimateMsg, Header, RosImu, RosMagneticField, RosType, Stamp};
@@ -146,10 +146,8 @@ fn an_imu_message_takes_the_path_of_p_v_imu() {
 
 #[test]
 fn the_preset_is_the_imu_preset_with_the_edge_on() {
-    let read = |name: &str| {
-        let text = std::fs::read_to_string(repo().join("config").join(name)).unwrap();
-        parse(&text, name).unwrap()
-    };
+    // (Through the file, so that `extends` is followed as `serve --config` follows it.)
+    let read = |name: &str| load(&repo().join("config").join(name)).unwrap();
     let (imu, ros2) = (read("imu.json5"), read("ros2.json5"));
     assert_eq!(ros2.zenoh_json, imu.zenoh_json);
     assert!(ros2.service.ros2.enabled);

@@ -603,6 +603,15 @@ impl Engine {
         Ok(v)
     }
 
+    /// Publishes `r` on `P/V/rejected` without counting it as a rejection (a gap: the sample was used).
+    fn tell_only(&self, vehicle: &str, key: &str, r: &Rejection) {
+        tracing::debug!(key, code = r.code.as_str(), message = %r.message, "told");
+        let msg = crate::wire::ToMessage::to_message(r, key);
+        if let Ok(payload) = serde_json::to_vec(&msg) {
+            (self.sink)(&self.keys.vehicle(vehicle, Leaf::Rejected), payload);
+        }
+    }
+
     /// Publishes a rejection on `P/V/rejected` and counts it.
     pub fn reject(&self, vehicle: &str, key: &str, r: &Rejection) {
         self.counters.reject(r.code);
@@ -740,9 +749,11 @@ impl Engine {
                     v.processed.fetch_add(1, Ordering::Relaxed);
                     self.counters.processed.fetch_add(1, Ordering::Relaxed);
                 }
-                Event::Rejected(stream, r) | Event::Gap(stream, r) => {
+                Event::Rejected(stream, r) => {
                     self.reject(&v.id, &self.stream_key(&v.id, stream), &r)
                 }
+                // Not a refusal: told, and counted as a gap (`Totals`), not as a rejection.
+                Event::Gap(stream, r) => self.tell_only(&v.id, &self.stream_key(&v.id, stream), &r),
                 Event::Estimate(p) => {
                     // What a subscriber sees must agree with P/@/vehicles at once.
                     refresh_info(v, state);

@@ -588,6 +588,7 @@ saved!(GyroChannelV5 for GyroChannel {
     change_ms: f64,
     gaps: u64,
     blind_s: f64,
+    held: u32,
 });
 
 #[derive(Serialize, Deserialize)]

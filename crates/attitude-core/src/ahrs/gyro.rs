@@ -52,7 +52,7 @@ impl Default for GyroConfig {
         GyroConfig {
             change_factor: 0.5,
             range_rad_s: 0.0,
-            saturation_factor: 0.25,
+            saturation_factor: 1.0,
             gap_turn_factor: 1.0,
         }
     }
@@ -119,6 +119,9 @@ pub struct GyroChannel {
     /// Gaps, and the time without samples in them, s.
     pub gaps: u64,
     pub blind_s: f64,
+    /// Readings in a row now that repeat the previous one bit for bit on every axis (a driver that
+    /// holds its last reading when no new one is ready).
+    pub held: u32,
 }
 
 impl GyroChannel {
@@ -196,14 +199,28 @@ impl GyroChannel {
             }
         }
         let change = self.previous.map_or(0.0, |p| (gyr - p).norm());
+        // A reading equal to the previous one on every axis, bit for bit, is a held reading, not a
+        // rate that stood still (a real gyro's noise changes some bit): the rate went on changing
+        // unseen, by about the recent change per sample, for as many samples as it is held.
+        // (A saturated reading repeats too: its own term below covers it.)
+        let range = self.range(c);
+        let saturated = range > 0.0 && peak >= SATURATION_FRACTION * range;
+        let held = self.previous == Some(*gyr) && peak > 0.0 && !saturated;
         self.previous = Some(*gyr);
         let dt = dt_s.max(0.0);
         let k = (dt / RECENT_S).min(1.0);
         self.rate_ms += k * (gyr.norm_squared() / 3.0 - self.rate_ms);
-        self.change_ms += k * (change * change / 3.0 - self.change_ms);
-        let mut var = (c.change_factor * change * dt).powi(2);
-        let range = self.range(c);
-        if range > 0.0 && peak >= SATURATION_FRACTION * range {
+        let mut var = if held {
+            self.held = self.held.saturating_add(1);
+            let n = f64::from(self.held);
+            let step = (3.0 * self.change_ms).sqrt() * dt;
+            (2.0 * n - 1.0) * step * step
+        } else {
+            self.held = 0;
+            self.change_ms += k * (change * change / 3.0 - self.change_ms);
+            (c.change_factor * change * dt).powi(2)
+        };
+        if saturated {
             self.run = self.run.saturating_add(1);
             self.saturated += 1;
             let n = f64::from(self.run);
@@ -222,7 +239,7 @@ mod tests {
     use super::*;
 
     /// A constant rate adds nothing; a change adds (½ ‖Δω‖ Δt)²; a saturated run grows its 1σ
-    /// linearly: after n samples the added variances sum to (n · ¼ · range · Δt)².
+    /// linearly: after n samples the added variances sum to (n · range · Δt)².
     #[test]
     fn change_and_saturation_variances() {
         let c = GyroConfig {
@@ -244,11 +261,41 @@ mod tests {
             total += g.step(&c, &sat, dt);
         }
         // Runs of 2..6: Σ (2n − 1) step² = (36 − 1) step².
-        let step = 0.25 * 4.0 * dt;
+        let step = 1.0 * 4.0 * dt;
         assert!((total - 35.0 * step * step).abs() < 1e-15, "{total}");
         assert_eq!(g.saturated, 6);
         assert_eq!(g.step(&c, &w, dt) > 0.0, true);
         assert_eq!(g.run, 0);
+    }
+
+    /// A reading repeated bit for bit (a driver that holds its last one) hides the rate's change: it
+    /// adds the recent change per sample, growing over a run of them like a saturated run; a rate that
+    /// changes adds only its own change.
+    #[test]
+    fn held_readings_are_not_trusted() {
+        let c = GyroConfig::default();
+        let mut g = GyroChannel::default();
+        let dt = 0.01;
+        for k in 0..200 {
+            let w = Vector3::new((0.05 * k as f64).sin(), 0.2, -0.1);
+            g.step(&c, &w, dt);
+        }
+        let step2 = 3.0 * g.change_ms * dt * dt;
+        let w = g.previous.unwrap();
+        let first = g.step(&c, &w, dt);
+        let second = g.step(&c, &w, dt);
+        assert!(
+            (first - step2).abs() < 1e-12 * step2.max(1e-30),
+            "{first} {step2}"
+        );
+        assert!(
+            (second - 3.0 * step2).abs() < 1e-9 * step2,
+            "{second} {step2}"
+        );
+        assert_eq!(g.held, 2);
+        let moved = g.step(&c, &(w + Vector3::new(0.01, 0.0, 0.0)), dt);
+        assert!((moved - (0.5 * 0.01 * dt).powi(2)).abs() < 1e-18, "{moved}");
+        assert_eq!(g.held, 0);
     }
 
     /// Without a range: a reading that repeats the largest rate seen bit for bit is a clipped output

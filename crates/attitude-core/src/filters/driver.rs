@@ -130,12 +130,17 @@ impl<F: FilterCore> Driver<F> {
         // A sample after a gap: what is left of the gap is bridged by the mean of the rates on both
         // sides (the rotation of a rate that changed evenly across it), not the earlier rate held;
         // the gap's inflation covers what a rate between them could have done besides.
+        // (A refused sample leaves the held rate as it was.)
+        let held = self.omega_meas_rad_s;
         if self.gap_at(g.t_s).is_some() {
-            if let Some(w) = self.omega_meas_rad_s {
+            if let Some(w) = held {
                 self.omega_meas_rad_s = Some(0.5 * (w + g.omega_body_rad_s));
             }
         }
-        self.propagate_to(g.t_s)?;
+        if let Err(e) = self.propagate_to(g.t_s) {
+            self.omega_meas_rad_s = held;
+            return Err(e);
+        }
         if let Some(tg) = self.last_gyro_t_s {
             let dt = g.t_s - tg;
             if dt > SAME_INSTANT_S {
