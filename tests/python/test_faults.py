@@ -105,13 +105,13 @@ def test_a_batch_refused_as_too_late_stays_honest_and_beats_vqf_fed_the_same_sam
 
 
 def test_lost_batches_and_bursts_keep_their_measured_accuracy(study):
-    """Deterministic: loss-1% 21.8° (VQF as fed 21.7°), burst-1s 13.6° (VQF as fed 8.1°); docs/faults.md."""
+    """Deterministic: loss-1% 21.8° (VQF as fed 21.7°), burst-1s 26.8° (VQF as fed 18.0°); docs/faults.md."""
     assert study["cases"]["loss-1%"]["ours"]["total_rmse_deg"] < 24.0
-    assert study["cases"]["burst-1s"]["ours"]["total_rmse_deg"] < 15.0
+    assert study["cases"]["burst-1s"]["ours"]["total_rmse_deg"] < 29.0
 
 
 @pytest.mark.xfail(strict=True, reason="known defect (docs/faults.md): a gap in fast motion (5-7 rad/s) is bridged "
-                   "with a covariance too small for the error it leaves (loss-1%: 3-axis in99 0.37; burst-1s: tilt "
+                   "with a covariance too small for the error it leaves (loss-1%: 3-axis in99 0.37; burst-1s: 3-axis "
                    "in99 0.84)")
 def test_lost_batches_and_bursts_stay_honest(study):
     for case in ("loss-1%", "burst-1s"):

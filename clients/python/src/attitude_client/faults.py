@@ -136,11 +136,12 @@ def plan(case: str, t: np.ndarray, movement: np.ndarray | None, batch: int, max_
     kind = spec["kind"]
 
     def movement_point(span_s: float) -> float:
-        """A seeded time in the movement (after its first second) with ``span_s`` after it before the trial's end,
-        or the movement's first second when the trial is not that long."""
+        """The time of a seeded ``movement`` sample (not in the movement's first second) with ``span_s`` after it
+        before the trial's end, or the movement's first second when the trial is not that long."""
         lo = t[first_movement] + 1.0
-        hi = max(lo, t[-1] - span_s)
-        return float(rng.uniform(lo, hi))
+        moving = movement if movement is not None else np.ones(n, bool)
+        cand = np.flatnonzero(moving & (t >= lo) & (t <= t[-1] - span_s))
+        return float(t[rng.choice(cand)]) if len(cand) else float(lo)
 
     if kind == "loss":
         k = max(1, int(round(spec["p"] * nb)))
@@ -149,7 +150,7 @@ def plan(case: str, t: np.ndarray, movement: np.ndarray | None, batch: int, max_
         out["lost"] = np.concatenate([batches[b] for b in gone]) if len(gone) else np.zeros(0, int)
         puts = [batches[b] for b in order]
     elif kind == "burst":
-        t0 = movement_point(spec["s"])
+        t0 = movement_point(spec["s"] + 1.0)
         lost = np.flatnonzero((t >= t0) & (t < t0 + spec["s"]))
         out["lost"], out["burst_t"] = lost, t0
         keep = np.ones(n, bool)
