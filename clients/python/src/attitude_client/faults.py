@@ -769,7 +769,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("trials", type=Path, nargs="*", help="BROAD trials (.hdf5) or CSV trials (docs/recordings.md)")
     ap.add_argument("--table", type=Path, help="print the tables of results saved by --json, and run nothing")
-    ap.add_argument("--cases", default=",".join(CASES), help=f"comma-separated, of: {', '.join(CASES)} (default all)")
+    ap.add_argument("--cases", default=",".join(CASES), help=f"comma-separated, of: {', '.join(CASES)} (default all)".replace("%", "%%"))
     ap.add_argument("--bin", default=os.environ.get("ATTITUDE_SERVICE_BIN") or shutil.which("attitude-service"),
                     help="the service binary (default $ATTITUDE_SERVICE_BIN, else attitude-service on the PATH)")
     ap.add_argument("--config", type=Path, default=default_config(),
