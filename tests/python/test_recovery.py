@@ -39,7 +39,7 @@ import zenoh.ext
 from attitude_client import AttitudeClient
 from attitude_client.replay import load_trial
 from conftest import ROOT, Collector, ServiceProcess, free_port, subscribe_synced, wait_until
-from tcp_proxy import TcpProxy
+from attitude_client.tcp_proxy import TcpProxy
 from test_imu_determinism import TRIAL
 from test_late_data import cores_busy, spacecraft
 

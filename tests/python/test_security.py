@@ -37,7 +37,7 @@ import zenoh
 from attitude_client import AttitudeClient, ServiceError
 from certs import make_ca, make_cert, make_pki
 from conftest import BIN, ROOT, Collector, free_port, wait_until
-from tcp_proxy import TcpProxy
+from attitude_client.tcp_proxy import TcpProxy
 
 SECURITY = ROOT / "config" / "security"
 PREFIX = "attitude"  # the examples' key prefix

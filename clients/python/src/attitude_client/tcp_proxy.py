@@ -1,6 +1,7 @@
-"""A TCP proxy for the tests that cut a link: a zenoh session connects to the proxy, which forwards to the real
-endpoint; ``cut(seconds)`` closes every forwarded connection and refuses new ones (accepted, then closed at once)
-for that long, as a network that goes away and comes back does. Threads only, no dependency."""
+"""A TCP proxy that cuts a link (``attitude-faults``, the tests of recovery): a zenoh session connects to the proxy,
+which forwards to the real endpoint; ``cut(seconds)`` closes every forwarded connection and refuses new ones
+(accepted, then closed at once) for that long, as a network that goes away and comes back does. Threads only, no
+dependency."""
 
 from __future__ import annotations
 
