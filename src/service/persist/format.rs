@@ -581,6 +581,7 @@ saved!(GyroChannelV5 for GyroChannel {
     previous: Option<Vector3<f64>>,
     largest: f64,
     clipped: bool,
+    clip_repeats: u32,
     run: u32,
     saturated: u64,
     interval_s: f64,

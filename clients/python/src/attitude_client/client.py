@@ -123,6 +123,10 @@ def _record(vehicle: str, leaf: str, payload: bytes) -> bytes:
     return struct.pack("<H", len(key)) + key + struct.pack("<I", len(payload)) + payload
 
 
+#: Codes the service tells on ``P/V/rejected`` that are no refusal (the input was used; proto/README.md, "Errors").
+EVENT_CODES = frozenset({"gap"})
+
+
 class ServiceError(Exception):
     """An error reply of the service: a stable ``code``, a readable ``message`` and the ``key`` concerned."""
 
@@ -666,10 +670,19 @@ class AttitudeClient:
         (``vehicle`` may be ``*``). Returns the subscriber: keep it; ``undeclare()`` it to stop."""
         return self._subscribe(self.key(vehicle, "estimate"), callback)
 
-    def subscribe_rejections(self, callback: Callable[[dict], None], vehicle: str = "*"):
+    def subscribe_rejections(self, callback: Callable[[dict], None], vehicle: str = "*", events: bool = False):
         """Calls ``callback({"code", "message", "key"})`` for every input the service refused for
-        ``vehicle`` (``P/<vehicle>/rejected``). Returns the subscriber: keep it."""
-        return self._subscribe(self.key(vehicle, "rejected"), callback)
+        ``vehicle`` (``P/<vehicle>/rejected``). The service tells events on the same key that are no refusal
+        (``gap``: a sample after a gap in its stream, used); ``events=True`` passes them too. Returns the
+        subscriber: keep it."""
+        if events:
+            return self._subscribe(self.key(vehicle, "rejected"), callback)
+
+        def refusals(msg: dict) -> None:
+            if msg.get("code") not in EVENT_CODES:
+                callback(msg)
+
+        return self._subscribe(self.key(vehicle, "rejected"), refusals)
 
     def subscribe_truth(self, callback: Callable[[dict], None], vehicle: str = "*"):
         """Calls ``callback(truth)`` for every truth message of the simulator (``P/<vehicle>/truth``)."""

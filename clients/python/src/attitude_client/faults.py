@@ -271,7 +271,7 @@ class Observer:
         self.rejected: dict[str, int] = {}
         self.rejected_messages: list[dict] = []
         self.sub = client.session.declare_subscriber(client.key(vehicle, "estimate"), zenoh.handlers.FifoChannel(1 << 18))
-        self.rej = client.subscribe_rejections(self._on_rejected, vehicle)
+        self.rej = client.subscribe_rejections(self._on_rejected, vehicle, events=True)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._drain, daemon=True)
         self._thread.start()

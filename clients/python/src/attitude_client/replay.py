@@ -81,7 +81,7 @@ Z_99 = 2.575829303548901
 TRUTH_TILT_SIGMA_RAD = np.deg2rad(0.2)
 #: The keys of an estimator's scores: every estimator's, then those of a filter with a covariance.
 ACCURACY_KEYS = ("total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg")
-HONESTY_KEYS = ("tilt_in99", "tilt_nees_median", "heading_in99", "heading_offset_deg")
+HONESTY_KEYS = ("tilt_in99", "tilt_nees_median", "heading_in99", "heading_offset_deg", "att_in99", "att_nees_median")
 
 # ---------------------------------------------------------------------------------------------------
 # Quaternions, Hamilton [w, x, y, z]; the scores of src/study/broad.rs

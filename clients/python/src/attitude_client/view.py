@@ -98,7 +98,6 @@ REJECTION_CODES = (
     "filter_error",
     "wrong_route",
     "samples_missed",
-    "gap",
     "internal",
 )
 
@@ -443,7 +442,8 @@ class View:
                 self._on_estimate(Estimate.from_json(message), now)
             elif leaf == "truth":
                 self._on_truth(name, message, now)
-            elif leaf == "rejected":
+            elif leaf == "rejected" and message.get("code") != "gap":
+                # (A gap is told on the same key but is no refusal: the sample was used.)
                 self._on_rejected(name, message, now)
         except (KeyError, TypeError, ValueError):
             self.malformed += 1

@@ -173,11 +173,20 @@ impl GravityChannel {
         }
         let sigma = self.sigma_lp(c, at_rest);
         self.sigma_lp_rad = sigma;
-        let correlated = (c.correlation_s / c.interval_s.max(1e-9)).max(1.0).sqrt();
+        // Each update's information is spread over the time its error stays the same: the sensor's
+        // and the motion's over correlation_s; the gyro frame's own error (a gap's bridge, a
+        // saturated run) over the low-pass's memory, the whole time the low-passed vector holds it
+        // (spread over correlation_s instead, a 36° error after a gap in a shake was taken as
+        // independent evidence ten times a second, and the covariance shrank to a third of it).
+        let interval = c.interval_s.max(1e-9);
+        let own = (sigma * sigma - self.frame_var).max(0.0);
+        let sigma = (own * (c.correlation_s / interval).max(1.0)
+            + self.frame_var * (self.lp.tau_s / interval).max(1.0))
+        .sqrt();
         TiltObservation::Use(VectorObservation {
             body,
             reference: UP,
-            sigma: sigma * correlated,
+            sigma,
             // (No name: nothing reads it, and one would be an allocation per update.)
             sensor: None,
             aspect: Aspect::Tilt(UP),
