@@ -98,6 +98,7 @@ REJECTION_CODES = (
     "filter_error",
     "wrong_route",
     "samples_missed",
+    "gap",
     "internal",
 )
 
