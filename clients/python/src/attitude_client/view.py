@@ -655,6 +655,16 @@ class View:
                     self.handle(*item)
             self.dropped = stream.dropped
             self.tick()
+        # Stopping: what was already received is still shown, for at most two seconds (a view stopped just
+        # after a burst, on a busy machine, otherwise lost the tail it had not yet handled).
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            item = stream.get_nowait()
+            if item is None:
+                break
+            self.handle(*item)
+        self.dropped = stream.dropped
+        self.tick()
 
 
 def _filter_label(e: Estimate) -> str:
