@@ -647,24 +647,23 @@ class View:
             if item is not None:
                 self.handle(*item)
                 # Take what is buffered before the periodic work, but never for longer than a tick.
-                deadline = time.monotonic() + tick_s
-                while time.monotonic() < deadline:
-                    item = stream.get_nowait()
-                    if item is None:
-                        break
-                    self.handle(*item)
+                self._take_buffered(stream, tick_s)
             self.dropped = stream.dropped
             self.tick()
         # Stopping: what was already received is still shown, for at most two seconds (a view stopped just
         # after a burst, on a busy machine, otherwise lost the tail it had not yet handled).
-        deadline = time.monotonic() + 2.0
+        self._take_buffered(stream, 2.0)
+        self.dropped = stream.dropped
+        self.tick()
+
+    def _take_buffered(self, stream: Any, seconds: float) -> None:
+        """Handles what ``stream`` already holds, for at most ``seconds``."""
+        deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             item = stream.get_nowait()
             if item is None:
                 break
             self.handle(*item)
-        self.dropped = stream.dropped
-        self.tick()
 
 
 def _filter_label(e: Estimate) -> str:
