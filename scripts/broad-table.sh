@@ -40,7 +40,12 @@ import json, math, sys
 from pathlib import Path
 data, out, tuning, trials = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3]), sys.argv[4:]
 pub = json.loads((data / "published_madgwick_rmse.json").read_text())["trials"]
-folds = {f["trial"]: f for f in json.loads(tuning.read_text()).get("folds", [])}
+record = json.loads(tuning.read_text())
+# Held out: a trial's own fold (--loo), else its set's (--loo-sets: tuned on the other sets).
+folds = {f["trial"]: f for f in record.get("folds", [])}
+for sf in record.get("set_folds", []):
+    for f in sf["trials"]:
+        folds.setdefault(f["trial"], f)
 print("| trial | filter | total ° | heading ° | incl. ° | held-out total ° | tilt in 99% | tilt NEES med. | "
       "heading in 99% | heading offset ° | VQF total / heading / incl. ° | Madgwick (ahrs) total ° | "
       "published Madgwick total ° |")
