@@ -353,7 +353,10 @@ def test_latency_against_an_rclpy_echo(dds_service):
     skip = 200  # the first second: discovery's last exchanges, the filter's start
     svc = latencies(d.out)[skip:]
     ech = latencies(echo_out)[skip:]
-    assert len(svc) >= 2600 - ALIGNING - skip and len(ech) >= 2600 - skip, (len(svc), len(ech))
+    # Both writers are the driver's usual reliable keep-last 10, which may replace a sample its reader has not
+    # acknowledged yet (ROS QoS allows it; a CI machine with every core busy stalled the Python echo for 2 of 2600).
+    # Completeness is asserted by the round-trip tests; here a latency is measured, on at least 99% of the samples.
+    assert len(svc) >= 0.99 * (2600 - ALIGNING - skip) and len(ech) >= 0.99 * (2600 - skip), (len(svc), len(ech))
     p = {name: (np.percentile(x, 50), np.percentile(x, 99)) for name, x in (("service", svc), ("echo", ech))}
     print(f"\nrclpy → service → rclpy: p50 {p['service'][0]:.3f} ms, p99 {p['service'][1]:.3f} ms; "
           f"rclpy → rclpy echo → rclpy: p50 {p['echo'][0]:.3f} ms, p99 {p['echo'][1]:.3f} ms "
