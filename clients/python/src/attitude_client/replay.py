@@ -642,7 +642,7 @@ def main() -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object {estimator: {total_rmse_deg, ...}}")
     ap.add_argument("--filters", default="mekf,qpf:average",
                     help="comma-separated filters, one vehicle each (default mekf,qpf:average)")
-    ap.add_argument("--particles", type=int, default=500, help="particles of a qpf vehicle (default 500)")
+    ap.add_argument("--particles", type=int, default=2000, help="particles of a qpf vehicle (default 2000, as config/imu.json5)")
     ap.add_argument("--excerpt-seconds", type=float,
                     help="replay only the opening rest and this many seconds from the first movement sample")
     ap.add_argument("--batch", type=int, default=100,
