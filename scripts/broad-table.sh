@@ -8,7 +8,7 @@
 #       defaults: ../shared/data/broad, target/broad, docs/broad/tuning.json
 #
 # Starts `attitude-service serve --config config/imu.json5` on a free port, replays each trial (one vehicle
-# per filter, one after the other; the QPF with the preset's 2000 particles), stops the service, and writes per trial
+# per filter, one after the other; the QPF with the preset's particles), stops the service, and writes per trial
 # OUT_DIR/TRIAL.json (the --json line) and OUT_DIR/TRIAL.details.json. The tuning record is what
 # `attitude-service imu-study TRIALS --tune config/imu-tuning.json5 --loo --out FILE` writes.
 set -euo pipefail
@@ -29,7 +29,7 @@ TRIALS=()
 for f in "$DATA"/*.hdf5; do
   t=$(basename "$f" .hdf5)
   TRIALS+=("$t")
-  "$PY" -m attitude_client.replay "$f" --connect "tcp/127.0.0.1:$PORT" --particles 2000 --tag "table${t%%_*}" \
+  "$PY" -m attitude_client.replay "$f" --connect "tcp/127.0.0.1:$PORT" --tag "table${t%%_*}" \
     --json --details "$OUT/$t.details.json" >"$OUT/$t.json"
 done
 kill $SERVICE

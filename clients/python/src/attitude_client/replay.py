@@ -426,12 +426,14 @@ def _check_and_cut(path: Path, trial: dict, excerpt_seconds: float | None) -> di
 # Through the service
 
 
-def reset_fields(spec: str, particles: int) -> dict:
+def reset_fields(spec: str, particles: int | None) -> dict:
+    """The reset request that switches a vehicle to ``spec``; a qpf's particles only when given (otherwise the
+    service's configured count, e.g. config/imu.json5's)."""
     kind, _, fiducial = spec.partition(":")
     fields = {"filter": kind}
     if kind != "mekf":
         fields["fiducial"] = fiducial or "average"
-    if kind == "qpf":
+    if kind == "qpf" and particles is not None:
         fields["particles"] = particles
     return fields
 
@@ -642,7 +644,8 @@ def main() -> int:
     ap.add_argument("--json", action="store_true", help="print one JSON object {estimator: {total_rmse_deg, ...}}")
     ap.add_argument("--filters", default="mekf,qpf:average",
                     help="comma-separated filters, one vehicle each (default mekf,qpf:average)")
-    ap.add_argument("--particles", type=int, default=2000, help="particles of a qpf vehicle (default 2000, as config/imu.json5)")
+    ap.add_argument("--particles", type=int,
+                    help="particles of a qpf vehicle (default: the service's configured count)")
     ap.add_argument("--excerpt-seconds", type=float,
                     help="replay only the opening rest and this many seconds from the first movement sample")
     ap.add_argument("--batch", type=int, default=100,
@@ -669,7 +672,7 @@ def main() -> int:
                     help="plain puts instead of advanced publishers (no recovery of a lost put)")
     ap.add_argument("--details", type=Path, help="write the run's particulars here (JSON)")
     args = ap.parse_args()
-    if args.batch < 1 or args.window < args.batch or args.particles < 1 or args.copies < 1 or args.pause < 0:
+    if args.batch < 1 or args.window < args.batch or (args.particles is not None and args.particles < 1) or args.copies < 1 or args.pause < 0:
         ap.error("--batch must be ≥ 1, --window ≥ --batch, --particles ≥ 1, --copies ≥ 1, --pause ≥ 0")
     args.reset_t = None
 
@@ -759,7 +762,7 @@ def main() -> int:
                 note += (f" per vehicle, {run['samples_per_s_all_copies']:.0f} for all {args.copies}"
                          f" (copies {'identical' if run['copies_identical'] else 'DIFFER'})")
             if name.startswith("qpf"):
-                note += f", {args.particles} particles"
+                note += f", {args.particles or 'the service’s configured'} particles"
         print(f"{name:<14} {r['total_rmse_deg']:>8.2f} {r['heading_rmse_deg']:>9.2f} "
               f"{r['inclination_rmse_deg']:>8.2f}{honesty}   {note}")
     print(f"BROAD RMSE over `movement` (broad_utils.calculateRMSE, alignment: {trial['truth']['align']}); honesty as "
