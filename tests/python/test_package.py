@@ -196,14 +196,17 @@ def test_the_wheel_is_typed_and_installs_its_scripts(tmp_path):
     assert out.returncode == 0, out.stderr
     (wheel,) = tmp_path.glob("attitude_client-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    for module in ("__init__", "client", "estimate", "stream", "replay", "view", "view_rerun"):
+    for module in ("__init__", "client", "estimate", "stream", "replay"):
         assert f"attitude_client/{module}.py" in names
+    # attitude-view, a package: the model, its sinks and the command line.
+    for module in ("__init__", "__main__", "geometry", "schemas", "model", "foxglove_sink", "rerun_sink", "cli"):
+        assert f"attitude_client/view/{module}.py" in names
     assert "attitude_client/py.typed" in names
     assert "attitude_client/layouts/demo.json" in names
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "attitude-replay = attitude_client.replay:main" in text
-    assert "attitude-view = attitude_client.view:main" in text
+    assert "attitude-view = attitude_client.view.cli:main" in text
     metadata = zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith("METADATA"))).decode()
     assert re.search(r"^Requires-Dist: eclipse-zenoh", metadata, re.M)
     assert re.search(r"^Requires-Dist: numpy", metadata, re.M)

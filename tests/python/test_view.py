@@ -1,4 +1,4 @@
-"""`attitude-view` (clients/python/src/attitude_client/view.py), headless: the real service, `simulate` for four
+"""`attitude-view` (clients/python/src/attitude_client/view/), headless: the real service, `simulate` for four
 spacecraft with the demo's filters, the view as a subprocess (its console script, as a user runs it), and a client of
 the Foxglove WebSocket protocol written here (websockets; subprotocol `foxglove.sdk.v1`, the protocol's current name:
 `serverInfo`, `advertise`, `subscribe`, binary message data `0x01 | subscription id u32 LE | log time u64 LE |

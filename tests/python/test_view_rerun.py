@@ -1,8 +1,8 @@
-"""`attitude-view --rerun` (clients/python/src/attitude_client/view_rerun.py), headless: the real service, `simulate` for
-four spacecraft with the demo's filters, the view as a subprocess (its console script), and a client of the Rerun
-server it starts: the wheel's `rerun` command connected to the view's gRPC server (`rerun rerun+http://…/proxy --save
-FILE.rrd`, what a viewer receives, saved until the server goes away), read back with rerun's chunk API
-(`rerun.chunk.RrdReader`, Arrow record batches), not with the logging calls that wrote it.
+"""`attitude-view --rerun` (clients/python/src/attitude_client/view/rerun_sink.py), headless: the real service,
+`simulate` for four spacecraft with the demo's filters, the view as a subprocess (its console script), and a client of
+the Rerun server it starts: the wheel's `rerun` command connected to the view's gRPC server (`rerun
+rerun+http://…/proxy --save FILE.rrd`, what a viewer receives, saved until the server goes away), read back with
+rerun's chunk API (`rerun.chunk.RrdReader`, Arrow record batches), not with the logging calls that wrote it.
 
 What is checked, against what the service and the simulator publish (the test's own subscriptions and queries), as
 tests/python/test_view.py does for the Foxglove sink: the entities; each vehicle's attitude entities hold the service's
@@ -35,7 +35,7 @@ import rerun  # noqa: F401  (the view-rerun extra: scripts/python-tests.sh insta
 from rerun.chunk import RrdReader
 
 from attitude_client import view as view_module
-from attitude_client import view_rerun
+from attitude_client.view import rerun_sink
 from conftest import BIN, ServiceProcess, free_port, wait_until
 from sim import attitude_nees, axis_errors_rad, to_rotation
 
@@ -70,7 +70,7 @@ def read_rrd(path: Path) -> tuple[dict[str, list[dict]], dict[str, list[dict]]]:
 
     reader = RrdReader(path)
     (recording,) = reader.recordings()
-    assert recording.application_id == view_rerun.APPLICATION_ID
+    assert recording.application_id == rerun_sink.APPLICATION_ID
     blueprints = reader.blueprints()
     assert blueprints, "the view sent no blueprint"
     # The view sends its blueprint again when vehicles appear, each time a new blueprint store: the last sent counts.
@@ -163,7 +163,7 @@ def run(tmp_path_factory):
         rrd = work / "view.rrd"
         with open(work / "saver.log", "wb") as log:
             saver = subprocess.Popen(
-                [str(view_rerun.rerun_cli()), f"rerun+http://127.0.0.1:{grpc}/proxy", "--save", str(rrd),
+                [str(rerun_sink.rerun_cli()), f"rerun+http://127.0.0.1:{grpc}/proxy", "--save", str(rrd),
                  "--bind", "127.0.0.1", "--port", str(free_port())],
                 stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
             )
@@ -218,7 +218,7 @@ def run(tmp_path_factory):
 def test_the_servers_listen_on_the_loopback_and_serve_the_web_viewer(run):
     web, grpc = run["ports"]
     assert run["listening"] == {"web": {"0100007F"}, "grpc": {"0100007F"}}, run["listening"]  # 127.0.0.1 only
-    assert run["url"] == view_rerun.viewer_url(web, grpc)
+    assert run["url"] == rerun_sink.viewer_url(web, grpc)
     assert f"url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc}%2Fproxy" in run["url"]
     assert "re_viewer" in run["index"]
     assert run["wasm"][:4] == b"\0asm" and len(run["wasm"]) > 1_000_000
@@ -229,7 +229,7 @@ def test_the_entities(run):
     for v in VEHICLES:
         for leaf in ("attitude", "error", "diagnostics"):
             assert f"/{v}/{leaf}" in rec, (v, leaf)
-        for leaf, fields in view_rerun.PLOTTED.items():
+        for leaf, fields in rerun_sink.PLOTTED.items():
             for field in fields:
                 if field == "ess" and not FILTERS[v].startswith("qpf"):
                     continue
@@ -448,7 +448,7 @@ def test_write_blueprint_writes_a_blueprint_file(tmp_path):
     assert done.returncode == 0, done.stderr
     reader = RrdReader(out)
     (bp,) = reader.blueprints()
-    assert bp.application_id == view_rerun.APPLICATION_ID and reader.recordings() == []
+    assert bp.application_id == rerun_sink.APPLICATION_ID and reader.recordings() == []
     names = set()
     for chunk in reader.stream(store=bp):
         rb = chunk.to_record_batch()

@@ -1,5 +1,6 @@
 """The Rerun sink of ``attitude-view`` (``attitude-view --rerun``): the same view as the Foxglove sink (the messages of
-:class:`attitude_client.view.View`, computed there once) as Rerun entities, shown by Rerun's web viewer in a browser.
+:class:`attitude_client.view.model.View`, computed there once) as Rerun entities, shown by Rerun's web viewer in a
+browser.
 
     attitude-view --rerun --connect tcp/127.0.0.1:7447      # then open http://127.0.0.1:9090/?url=... (printed)
 
@@ -38,7 +39,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from .view import AXIS_RGB, DEMO_VEHICLES, GRID_COLUMNS, GRID_SPACING, Pose
+from .model import AXIS_RGB, DEMO_VEHICLES, GRID_COLUMNS, GRID_SPACING, Pose
 
 __all__ = ["APPLICATION_ID", "PLOTTED", "RerunServer", "RerunSink", "blueprint", "flatten", "series", "viewer_url"]
 
@@ -98,10 +99,10 @@ def viewer_url(web_port: int, grpc_port: int, host: str = "127.0.0.1") -> str:
 
 
 def blueprint(vehicles: Sequence[str] = DEMO_VEHICLES, truth: bool = True) -> Any:
-    """The Rerun blueprint of the view, the Foxglove layout's twin (:func:`attitude_client.view.layout`): the 3D
-    scene and the table of the vehicles on the left; on the right a plot per vehicle (``truth``: its error per body
-    axis with ±3σ; otherwise its roll/pitch/yaw and, below, its 3σ per body axis), the ESS of every vehicle and the
-    rejections."""
+    """The Rerun blueprint of the view, the Foxglove layout's twin (:func:`attitude_client.view.foxglove_sink.layout`):
+    the 3D scene and the table of the vehicles on the left; on the right a plot per vehicle (``truth``: its error per
+    body axis with ±3σ; otherwise its roll/pitch/yaw and, below, its 3σ per body axis), the ESS of every vehicle and
+    the rejections."""
     import rerun.blueprint as rrb
 
     vehicles = list(vehicles)
