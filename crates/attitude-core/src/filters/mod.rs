@@ -15,6 +15,7 @@ mod driver;
 pub mod mekf;
 pub mod qpf;
 pub mod sghqf;
+pub mod sigma;
 mod spec;
 pub mod state;
 pub mod usque;

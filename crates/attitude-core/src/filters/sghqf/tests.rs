@@ -2,7 +2,9 @@
 //! in tests/it/sghqf.rs.
 
 use super::*;
+use crate::filters::FilterSpec;
 use crate::sensors::GyroNoise;
+use nalgebra::Vector3;
 
 fn filter(level: u8, fiducial: &str) -> Sghqf {
     let spec: FilterSpec = format!("sghqf:{fiducial}").parse().unwrap();
@@ -25,7 +27,7 @@ fn the_drawn_points_reproduce_the_mean_and_covariance() {
     for level in LEVELS {
         let f = filter(level, "average");
         let pts = f.draw(&f.p).unwrap();
-        let w = &f.rule.weights;
+        let w = &f.rule().weights;
         let mean: Vector6<f64> = pts.chi.iter().zip(w).map(|(c, w)| c * *w).sum();
         let cov: Matrix6<f64> = pts
             .chi
