@@ -89,6 +89,12 @@ pub struct AhrsCounts {
 /// the interval, its mean or its end.
 const INTERVAL_INSTANT_FRACTION: f64 = 0.5;
 
+/// The share of a held reading's variance that stays in the gyro frame after its run's catch-up:
+/// a rate that wanders by a random change per sample turns, over a run of `n`, away from the line
+/// between the run's two ends by `n(n+1)(n+2)/12` changes² (a Brownian bridge), against the `n²` the
+/// held rate is given (one reading: ½; two: ½; three: 5/9).
+const HELD_FRAME_SHARE: f64 = 0.5;
+
 /// A gap that may hide more than this rotation (1σ², 1°) leaves the hard-iron fit in a frame that
 /// has turned wrongly: it forgets what it held.
 const FIT_FORGET_RAD2: f64 = 3.0e-4;
@@ -236,6 +242,21 @@ impl Ahrs {
         })
     }
 
+    /// The rotation a held run hid, when this sample ends one: the run's readings repeated the rate
+    /// from before it, while the rate went from that one to this sample's; the rotation over the run
+    /// is then closer to the mean of the two (`(ω_k − ω_held) T_run / 2` more than was turned) than to
+    /// the held rate alone. (The run's variance, added per held reading, stays: it is that of the
+    /// held rate; the interpolated one is at least as good.)
+    fn held_catch_up(&self, s: &ImuSample) -> Option<Vector3<f64>> {
+        let held = self.gyro.held;
+        let prev = self.gyro.previous?;
+        if held == 0 || prev == s.gyr_rad_s {
+            return None;
+        }
+        let run_s = f64::from(held) * self.gyro.interval_s;
+        Some((s.gyr_rad_s - prev) * (0.5 * run_s))
+    }
+
     /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
     /// `gap`: the gap before the sample, bridged in the gyro frame as in the filter.
     fn preprocess(
@@ -244,6 +265,7 @@ impl Ahrs {
         s: &ImuSample,
         bias: &Vector3<f64>,
         gap: Option<&Gap>,
+        catch_up: Option<&Vector3<f64>>,
     ) -> Preprocessed {
         let dt = match self.t_s {
             Some(t) => (s.t_s - t).max(0.0),
@@ -257,6 +279,9 @@ impl Ahrs {
             if let Some(g) = gap {
                 q = q.propagate(&(g.bridge_rad_s - bias), g.blind_s);
                 own = dt - g.blind_s;
+            }
+            if let Some(r) = catch_up {
+                q = q.propagate(r, 1.0);
             }
             self.q_gyro = q
                 .propagate(&(s.gyr_rad_s - bias), own)
@@ -314,7 +339,7 @@ impl Ahrs {
         if self.phase == Phase::Running {
             *self = Ahrs::new(c);
         }
-        self.preprocess(c, s, &Vector3::zeros(), None);
+        self.preprocess(c, s, &Vector3::zeros(), None, None);
         let Phase::Aligning {
             t0_s,
             acc,
@@ -423,12 +448,13 @@ impl Ahrs {
         let gyro_config = self.gyro_config(c);
         // A gap before this sample: bridged by the rates on both sides, its variance what it hid.
         let gap = self.gyro.gap(&gyro_config, &s.gyr_rad_s, s.t_s - t_prev);
+        let catch_up = self.held_catch_up(s);
         let Preprocessed {
             dt,
             a_gyro,
             up_gyro,
             gains,
-        } = self.preprocess(c, s, &bias, gap.as_ref());
+        } = self.preprocess(c, s, &bias, gap.as_ref(), catch_up.as_ref());
         let omega = s.gyr_rad_s - bias;
         // A sample stands for its whole interval: the instant its estimate describes is uncertain by
         // the sender's time stamp and by a part of the interval (the rate may be the interval's mean
@@ -456,6 +482,14 @@ impl Ahrs {
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
         let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, s.t_s - t_from);
+        if self.gyro.run == 0 && self.gyro.held > 0 {
+            // A held reading turns the gyro frame by the stale rate: what the low-pass holds from
+            // before is turned against what comes after by what the catch-up (`held_catch_up`) will
+            // not restore, the run's deviation from a line between the rates on both sides, about
+            // half the held rate's variance. (Left out, 30% of the samples held had the tilt inside
+            // its 99% ellipse 82% of the time, median NEES 2.8.)
+            self.gravity.frame_var += HELD_FRAME_SHARE * hidden;
+        }
         if self.gyro.run > 0 {
             // The gyro frame turned by less than the body: what the low-pass and the hard-iron fit
             // hold from before is turned wrongly against what comes after.
@@ -467,7 +501,13 @@ impl Ahrs {
             }
         }
         self.counts.gyro_saturated = self.gyro.saturated;
-        filter.gyro_interval_with(t_from, &s.gyr_rad_s, s.t_s, hidden)?;
+        // The catch-up of a held run is turned over this sample's interval, beside its own rate.
+        let own = s.t_s - t_from;
+        let rate = match catch_up {
+            Some(r) if own > 0.0 => s.gyr_rad_s + r / own,
+            _ => s.gyr_rad_s,
+        };
+        filter.gyro_interval_with(t_from, &rate, s.t_s, hidden)?;
         let at_rest = self.counts.at_rest;
         // Bias at rest.
         self.since_bias_s += dt;
