@@ -3,7 +3,7 @@
 //! Layout (see `ARCHITECTURE.md`):
 //! * [`attitude`], [`sensors`], [`ahrs`], [`filters`], [`bounds`], [`rng`], [`stats`], [`sim`],
 //!   [`rejection`] and
-//!   the vehicle state machine ([`service::vehicle`]): the numeric core, the crate `attitude-core`
+//!   the vehicle state machine ([`vehicle`]): the numeric core, the crate `attitude-core`
 //!   (`crates/attitude-core`), re-exported here under the same paths. No I/O, no async, no JSON.
 //! * [`study`]: Monte-Carlo accuracy studies of the filters against the Cramér–Rao bound, and their
 //!   reports.
@@ -16,7 +16,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub use attitude_core::{
-    ahrs, attitude, bounds, filters, rejection, rng, sensors, sim, simd, stats,
+    ahrs, attitude, bounds, filters, rejection, rng, sensors, sim, simd, stats, vehicle,
 };
 
 pub mod cli;

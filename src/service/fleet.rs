@@ -19,7 +19,8 @@
 //! lives.
 //!
 //! This module is the pure part: the configuration and the assignment. The engine keeps the members,
-//! the standby data and the takeovers; `service::run` declares the token and watches the others.
+//! the standby data and the takeovers; `service::membership` declares the token and watches the
+//! others.
 
 use super::keys::{route_of, ROUTES};
 use crate::rng::{fnv1a, splitmix64_mix, FNV_OFFSET};

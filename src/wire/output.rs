@@ -5,7 +5,7 @@ use super::input::number;
 use super::{RejectCode, Rejection};
 use crate::attitude::Quaternion;
 use crate::filters::{Estimate, FilterSpec};
-use crate::service::vehicle::{GateCounts, ImuDiagnostics, Published};
+use crate::vehicle::{GateCounts, ImuDiagnostics, Published};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 

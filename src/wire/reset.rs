@@ -5,7 +5,7 @@ use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
 use crate::ahrs::SensorSheet;
 use crate::filters::sghqf::LEVELS;
 use crate::filters::{Fiducial, FilterKind, FilterSpec};
-use crate::service::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
+use crate::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
 use nalgebra::{Matrix6, Vector3};
 use serde::de::{self, SeqAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};

@@ -12,7 +12,7 @@ use attitude_service::filters::{build_filter, FilterConfig, GyroErrors, InitialS
 use attitude_service::sensors::imu::{heading_basis, heading_jacobian};
 use attitude_service::sensors::{GyroNoise, ImuSample, Measurement};
 use attitude_service::service::config::{Policy, VehicleFilterConfig};
-use attitude_service::service::vehicle::{Event, ResetRequest, VehicleState};
+use attitude_service::vehicle::{Event, ResetRequest, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use rand::SeedableRng;

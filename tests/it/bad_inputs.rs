@@ -538,7 +538,7 @@ impl Run {
         }
     }
 
-    /// What the service's reset queryable does (`service::run`'s `reset`): a concrete vehicle, the payload
+    /// What the service's reset queryable does (`service::queryables`' `reset`): a concrete vehicle, the payload
     /// decoded with the input limits, `Engine::request_reset`, the worker's answer; a refusal is counted.
     fn reset(&self, vehicle: &str, payload: &[u8]) -> Result<ResetReplyMsg, Rejection> {
         let key = format!("{PREFIX}/{vehicle}/reset");

@@ -20,7 +20,7 @@ use attitude_service::sensors::{
 };
 use attitude_service::service::config::{self, Policy};
 use attitude_service::service::persist::{self, SavedCounters};
-use attitude_service::service::vehicle::{Event, VehicleState};
+use attitude_service::vehicle::{Event, VehicleState};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;

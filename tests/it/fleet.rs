@@ -10,7 +10,7 @@ use attitude_service::sensors::GyroNoise;
 use attitude_service::service::config::{override_fleet, parse, ServiceConfig};
 use attitude_service::service::engine::{Engine, Inbound};
 use attitude_service::service::fleet::owner;
-use attitude_service::service::vehicle::{TakeoverSeed, VehicleState};
+use attitude_service::vehicle::{TakeoverSeed, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix6, Vector3};
 use std::collections::{BTreeMap, BTreeSet};

@@ -12,7 +12,7 @@ use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config;
-use attitude_service::service::vehicle::VehicleState;
+use attitude_service::vehicle::VehicleState;
 use nalgebra::Vector3;
 
 const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);

@@ -4,8 +4,8 @@
 
 use crate::common::{collecting_engine, free_port, open_zenoh, service_config, wait_until};
 use attitude_service::service::engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink};
-use attitude_service::service::estimate_outlets;
 use attitude_service::service::keys::Keys;
+use attitude_service::service::outlets::estimate_outlets;
 use attitude_service::tools::loadgen::{imu_sample, star_set};
 use attitude_service::wire::{EstimateMsg, ImuMsg};
 use std::sync::atomic::{AtomicUsize, Ordering};

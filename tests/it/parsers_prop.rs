@@ -34,7 +34,7 @@ use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use attitude_service::service::config::{ServiceConfig, VehicleFilterConfig};
-use attitude_service::service::vehicle::{ResetRequest, VehicleState};
+use attitude_service::vehicle::{ResetRequest, VehicleState};
 use attitude_service::wire::{
     decode_batch, decode_one, EstimateMsg, GyroMsg, InputLimits, ObservationMsg, PerAxis,
     QuaternionMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, MAX_SENSOR_NAME,
@@ -1724,7 +1724,7 @@ proptest! {
     /// The full strategy, vector sets ahead of the filter's time included, and a start without a
     /// time: a vector set refused after the propagation to its time leaves the filter propagated
     /// there (the contract of `AttitudeFilter::process`, FINDING 1; the service's vehicle follows
-    /// the filter's time, `service::vehicle`), bit for bit what `advance_to` that time gives.
+    /// the filter's time, `attitude_service::vehicle`), bit for bit what `advance_to` that time gives.
     #[test]
     fn filters_unrestricted(
         f in 0usize..FILTERS.len(),

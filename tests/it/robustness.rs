@@ -10,7 +10,7 @@ use attitude_service::sensors::{
 };
 use attitude_service::service::config::{Policy, ServiceConfig, VehicleFilterConfig};
 use attitude_service::service::persist::{self, SavedCounters};
-use attitude_service::service::vehicle::{Event, Key, Stream, VehicleState};
+use attitude_service::vehicle::{Event, Key, Stream, VehicleState};
 use attitude_service::wire::{EstimateMsg, RejectCode};
 use nalgebra::Vector3;
 

@@ -7,7 +7,6 @@ mod raw;
 
 use super::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
 use super::keys::{Keys, Leaf};
-pub use super::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::ahrs::{
     AccConfig, AhrsConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
     SensorSheet,
@@ -20,6 +19,7 @@ use crate::filters::{
 use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
 use crate::sensors::GyroNoise;
 use crate::stats::chi_square_quantile;
+pub use crate::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
 use crate::wire::{validate_vehicle_id, InputLimits};
 use nalgebra::Vector3;
 use raw::*;

@@ -387,9 +387,8 @@ impl Engine {
             return decoded.len();
         };
         let before = decoded.len();
-        decoded.retain(|m| {
-            newest[crate::service::vehicle::stream_of(m) as usize].is_none_or(|t| m.t_s() > t)
-        });
+        decoded
+            .retain(|m| newest[crate::vehicle::stream_of(m) as usize].is_none_or(|t| m.t_s() > t));
         let skipped = before - decoded.len();
         if skipped > 0 {
             self.admission

@@ -34,8 +34,8 @@ use super::config::ServiceConfig;
 use super::fleet::{Assignment, FleetMode};
 use super::keys::{parse_route, route_of, Keys, Leaf, Received, ROUTES};
 use super::persist::{self, SavedCounters};
-use super::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
 use crate::sensors::Measurement;
+use crate::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
 use crate::wire::batch::{self, BatchWriter};
 use crate::wire::{
     decode_batch_into, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
@@ -137,7 +137,7 @@ pub struct Vehicle {
     blind_us: AtomicU64,
     /// Restored from a checkpoint: the newest sample time of each stream it held (zenoh may deliver
     /// those samples again from the publishers' caches; `Engine::skip_redelivered`).
-    restored_newest: Option<[Option<f64>; crate::service::vehicle::STREAMS]>,
+    restored_newest: Option<[Option<f64>; crate::vehicle::STREAMS]>,
     /// Changed since its last checkpoint.
     dirty: AtomicBool,
 }
@@ -686,7 +686,7 @@ impl Engine {
                 v.dirty.store(true, Ordering::Release);
                 match input {
                     Input::Measurement(m, now) => {
-                        let stream = super::vehicle::stream_of(&m);
+                        let stream = crate::vehicle::stream_of(&m);
                         let result = self.timed(&mut state, events, |s, e| {
                             s.on_measurement(m, now, policy, e)
                         });

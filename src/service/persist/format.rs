@@ -28,8 +28,8 @@ use crate::sensors::imu::{LowpassState, SensorState};
 use crate::sensors::{
     Aspect, GyroNoise, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
-use crate::service::vehicle::policy::{InitMode, VehicleFilterConfig};
-use crate::service::vehicle::{GateCounts, HeldSample, JumpCandidate, Stream, VehicleSnapshot};
+use crate::vehicle::policy::{InitMode, VehicleFilterConfig};
+use crate::vehicle::{GateCounts, HeldSample, JumpCandidate, Stream, VehicleSnapshot};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

@@ -10,7 +10,7 @@
 
 mod format;
 
-use super::vehicle::VehicleState;
+use crate::vehicle::VehicleState;
 use bincode::Options;
 use format::{CheckpointV5, Saved};
 use std::collections::BTreeMap;
@@ -117,7 +117,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         .with_limit(len as u64)
         .deserialize(payload)
         .map_err(|e| e.to_string())?;
-    let snapshot = crate::service::vehicle::VehicleSnapshot::load(c.vehicle)?;
+    let snapshot = crate::vehicle::VehicleSnapshot::load(c.vehicle)?;
     Ok(Checkpoint {
         state: VehicleState::restore(snapshot)?,
         counters: SavedCounters::load(c.counters)?,

@@ -223,7 +223,7 @@ pub async fn start(
         .allowed_destination(Locality::Remote)
         .await
         .map_err(zerr)?;
-    let anyone = crate::service::matching_flag(&watch).await?;
+    let anyone = crate::service::outlets::matching_flag(&watch).await?;
     let shared = Arc::new(Shared {
         session: session.clone(),
         zid: session.zid().to_string(),

@@ -2,7 +2,7 @@
 
 use attitude_service::attitude::Quaternion;
 use attitude_service::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
-use attitude_service::service::vehicle::Event;
+use attitude_service::vehicle::Event;
 use attitude_service::wire::EstimateMsg;
 use proptest::prelude::*;
 
