@@ -151,12 +151,21 @@ impl GravityChannel {
         (base * base + motion * motion + self.frame_var).sqrt()
     }
 
-    /// The tilt observation when one is due (every `interval_s`).
+    /// The tilt observation when one is due (every `interval_s`). `bias_across(up_body)`: the gyro
+    /// bias's variance per axis across the vertical, rad²/s², asked only when a reading is due.
+    ///
+    /// The low-pass lives in the gyro frame, which the bias estimate turns: a bias off by `δb` turns
+    /// it by `δb` a second, and the readings the low-pass holds are on average its time constant old,
+    /// so its vertical is off by about `δb⊥ τ`. That variance joins the frame's error for this reading
+    /// only (it is the filter's now, not a history the low-pass carries). It matters when the bias is
+    /// unsure: a start in motion, with no rest to learn it (the attached-magnet excerpt, the bias
+    /// 0.5°/s off for tens of seconds, had the tilt inside its 99% ellipse 88% of the time).
     pub fn observation(
         &mut self,
         c: &AccConfig,
         a_gyro: &Matrix3<f64>,
         at_rest: bool,
+        bias_across: impl FnOnce(&Vector3<f64>) -> f64,
     ) -> TiltObservation {
         if self.since_update_s + 1e-9 < c.interval_s {
             return TiltObservation::NotDue;
@@ -171,7 +180,9 @@ impl GravityChannel {
         if !((lp.norm() / self.g0 - 1.0).abs() <= c.norm_gate) {
             return TiltObservation::NormGated;
         }
-        let sigma = self.sigma_lp(c, at_rest);
+        let bias_var = bias_across(&body).max(0.0) * self.lp.tau_s * self.lp.tau_s;
+        let frame_var = self.frame_var + bias_var;
+        let sigma = (self.sigma_lp(c, at_rest).powi(2) + bias_var).sqrt();
         self.sigma_lp_rad = sigma;
         // Each update's information is spread over the time its error stays the same: the sensor's
         // and the motion's over correlation_s; the gyro frame's own error (a gap's bridge, a
@@ -179,9 +190,9 @@ impl GravityChannel {
         // (spread over correlation_s instead, a 36° error after a gap in a shake was taken as
         // independent evidence ten times a second, and the covariance shrank to a third of it).
         let interval = c.interval_s.max(1e-9);
-        let own = (sigma * sigma - self.frame_var).max(0.0);
+        let own = (sigma * sigma - frame_var).max(0.0);
         let sigma = (own * (c.correlation_s / interval).max(1.0)
-            + self.frame_var * (self.lp.tau_s / interval).max(1.0))
+            + frame_var * (self.lp.tau_s / interval).max(1.0))
         .sqrt();
         TiltObservation::Use(VectorObservation {
             body,

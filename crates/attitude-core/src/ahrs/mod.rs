@@ -517,7 +517,21 @@ impl Ahrs {
             self.counts.bias_updates += 1;
         }
         // Tilt.
-        match self.gravity.observation(&c.acc, &a_gyro, at_rest) {
+        // The low-pass lives in the gyro frame, which the bias estimate turns: while the bias is
+        // unsure (a start in motion, before it is learned) its variance across the vertical enters
+        // the reading (`GravityChannel::observation`). Read only when a reading is due.
+        let bias_across = |up: &Vector3<f64>| {
+            let pb: Matrix3<f64> = filter
+                .estimate()
+                .covariance
+                .fixed_view::<3, 3>(3, 3)
+                .into_owned();
+            (pb.trace() - (up.transpose() * pb * up)[0]) * 0.5
+        };
+        match self
+            .gravity
+            .observation(&c.acc, &a_gyro, at_rest, bias_across)
+        {
             TiltObservation::NotDue => {}
             TiltObservation::NormGated => self.counts.tilt_gated += 1,
             TiltObservation::Use(o) => {
