@@ -7,8 +7,15 @@
 //!   (`crates/attitude-core`), re-exported here under the same paths. No I/O, no async, no JSON.
 //! * [`study`]: Monte-Carlo accuracy studies of the filters against the Cramér–Rao bound, and their
 //!   reports.
-//! * [`wire`]: the JSON messages of the service and their validation into domain types.
-//! * [`service`]: the zenoh service (configuration, key expressions, vehicle engine, queryables).
+//! * [`wire`]: the contract: its key expressions and JSON messages, and their validation into domain
+//!   types.
+//! * [`engine`]: the vehicles without the network: registry, inboxes, dispatcher, workers and
+//!   housekeeping; it reaches the fleet and the ROS 2 edge only through its [`engine::Hooks`].
+//! * [`fleet`]: a fleet of instances: routes, assignment, membership, standby data, takeovers, the
+//!   batches and the routed sender.
+//! * [`ros2`]: the ROS 2 edge: its messages and CDR, keys, the edge, the network side, DDS.
+//! * [`query`]: what the service answers: the reads, `P/@/metrics`, the queryables.
+//! * [`service`]: the zenoh service's wiring, its configuration, session, checkpoints and inputs.
 //! * [`tools`]: around the service: the scenario publisher, the demo, load, soak and benchmarks.
 //! * [`cli`]: the binary's commands (options, set-up, output); `main.rs` only dispatches to them.
 
@@ -20,6 +27,10 @@ pub use attitude_core::{
 };
 
 pub mod cli;
+pub mod engine;
+pub mod fleet;
+pub mod query;
+pub mod ros2;
 pub mod service;
 pub mod study;
 pub mod tools;

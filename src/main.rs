@@ -3,7 +3,7 @@
 
 use anyhow::Result;
 use attitude_service::cli::runtime::{block_on, block_on_until_signal};
-use attitude_service::cli::{bench, fleet, imu_study, load, quadrature, scenario, serve, study};
+use attitude_service::cli::{bench, imu_study, load, quadrature, scenario, serve, simulate, study};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -37,11 +37,11 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Publishes a scenario's measurements for N simulated vehicles to a running service (and their
     /// truth on P/V/truth), in real time or faster.
-    Simulate(fleet::SimulateArgs),
+    Simulate(simulate::SimulateArgs),
     /// The service and simulated vehicles in one process over real zenoh, with a live table of each
     /// vehicle's error against the truth. By default: four vehicles with different filters on
     /// magnetometer-leo (initial errors up to 160°), 4 h of flight in about 30 s.
-    Demo(fleet::DemoArgs),
+    Demo(simulate::DemoArgs),
     /// Each filter's per-step cost on this machine (gyro propagation + an update with three vector
     /// observations), against the MEKF measured in the same run.
     Bench(bench::BenchArgs),
@@ -72,8 +72,8 @@ fn main() -> Result<()> {
         Command::Scenarios => scenario::list_scenarios(),
         Command::Quadrature(args) => quadrature::quadrature(args),
         Command::Serve(args) => block_on_until_signal(|stop| serve::serve(args, stop)),
-        Command::Simulate(args) => block_on_until_signal(|stop| fleet::simulate(args, stop)),
-        Command::Demo(args) => block_on_until_signal(|stop| fleet::demo(args, stop)),
+        Command::Simulate(args) => block_on_until_signal(|stop| simulate::simulate(args, stop)),
+        Command::Demo(args) => block_on_until_signal(|stop| simulate::demo(args, stop)),
         Command::Bench(args) => bench::bench(args),
         Command::ImuBench(args) => bench::imu_bench(args),
         Command::ImuStudy(args) => imu_study::imu_study(args),

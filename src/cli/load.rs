@@ -5,8 +5,8 @@ use super::config::peer_config;
 use super::runtime::init_logging;
 use crate::filters::FilterSpec;
 use crate::service::config as service_config;
-use crate::service::keys::Keys;
 use crate::tools::{loadgen, soak};
+use crate::wire::keys::Keys;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use tokio_util::sync::CancellationToken;
@@ -107,7 +107,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
-        publishing: super::fleet::publishing(!args.advanced, args.cache)?,
+        publishing: super::simulate::publishing(!args.advanced, args.cache)?,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

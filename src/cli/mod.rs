@@ -7,7 +7,7 @@
 //! * `study`: `montecarlo` and `sweep`; `scenario`: the scenario options they share with `simulate`
 //!   and `demo`, and `scenarios`;
 //! * `serve`: `serve`;
-//! * `fleet`: `simulate` and `demo`;
+//! * `simulate`: `simulate` and `demo`;
 //! * `bench`: `bench` and `imu-bench`;
 //! * `imu_study`: `imu-study` (and its tuning);
 //! * `load`: `loadgen` and `soak`;
@@ -19,11 +19,11 @@
 
 pub mod bench;
 pub mod config;
-pub mod fleet;
 pub mod imu_study;
 pub mod load;
 pub mod quadrature;
 pub mod runtime;
 pub mod scenario;
 pub mod serve;
+pub mod simulate;
 pub mod study;

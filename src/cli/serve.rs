@@ -77,7 +77,7 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
     }
     // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (service::ros2::dds).
     if let (true, Some(dds)) = (file.service.ros2.enabled, &file.service.ros2.dds) {
-        let key = format!("plugins/{}", crate::service::ros2::dds::PLUGIN);
+        let key = format!("plugins/{}", crate::ros2::dds::PLUGIN);
         zc.insert_json5(&key, &dds.to_string())
             .map_err(|e| anyhow::anyhow!("service.ros2.dds: {e}"))?;
         // The plugin's routes for transient-local topics (/rosout, /tf_static) need timestamps, as

@@ -33,9 +33,9 @@
 //! sensor publishers (best effort, volatile) number nothing and cache nothing.
 
 use super::config::IngestConfig;
-use super::engine::{Engine, Inbound, Ingest};
-use super::keys::{Leaf, Received};
 use super::{zerr, ServiceError};
+use crate::engine::{Engine, Inbound, Ingest};
+use crate::wire::keys::{Leaf, Received};
 use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

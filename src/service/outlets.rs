@@ -1,9 +1,9 @@
 //! The service's outputs: the sink the workers put rejections and standby batches through, and each
 //! vehicle's estimate outlet, put only while someone listens.
 
-use super::engine::{EstimateOutlet, Outlets, Sink};
-use super::keys::{Keys, Leaf};
 use super::{zerr, ServiceError};
+use crate::engine::{EstimateOutlet, Outlets, Sink};
+use crate::wire::keys::{Keys, Leaf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use zenoh::bytes::Encoding;

@@ -13,8 +13,8 @@
 //! token each: what that costs the service is measured in BENCHMARKS.md.
 
 use super::publish::{Inputs, Publishing};
-use super::routed::{RoutedSender, FLUSH_S};
-use crate::service::keys::{Keys, Leaf};
+use crate::fleet::sender::{RoutedSender, FLUSH_S};
+use crate::wire::keys::{Keys, Leaf};
 use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
@@ -223,7 +223,7 @@ pub async fn echo(session: &zenoh::Session, keys: &Keys) -> Result<Echo, zenoh::
             session
                 .declare_subscriber(key)
                 .callback(move |s: zenoh::sample::Sample| {
-                    if let Some(crate::service::keys::Received::Vehicle { vehicle, .. }) =
+                    if let Some(crate::wire::keys::Received::Vehicle { vehicle, .. }) =
                         k.classify(s.key_expr().as_str())
                     {
                         let _ = zenoh::Wait::wait(

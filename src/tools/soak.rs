@@ -10,10 +10,10 @@
 //! with SIGTERM and reports how it exited. Not run in CI.
 
 use crate::filters::FilterSpec;
-use crate::service::keys::{Keys, Leaf};
 use crate::tools::loadgen::{
     count_rejections, drain, latency_us, probe, star_set, time_key, Pending,
 };
+use crate::wire::keys::{Keys, Leaf};
 use crate::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;

@@ -407,8 +407,8 @@ fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
-    use attitude_service::service::keys::Keys;
     use attitude_service::tools::loadgen::{echo, run, LoadOptions};
+    use attitude_service::wire::keys::Keys;
     let h = Harness::start(service_config(
         r#"{ service: { filter: { kind: "mekf" } } }"#,
     ))
