@@ -75,7 +75,7 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
         zc.insert_json5("plugins/rest/http_port", &serde_json::to_string(&port)?)
             .map_err(|e| anyhow::anyhow!("--rest-http-port: {e}"))?;
     }
-    // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (service::ros2::dds).
+    // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (ros2::dds).
     if let (true, Some(dds)) = (file.service.ros2.enabled, &file.service.ros2.dds) {
         let key = format!("plugins/{}", crate::ros2::dds::PLUGIN);
         zc.insert_json5(&key, &dds.to_string())

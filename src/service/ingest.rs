@@ -26,7 +26,7 @@
 //! calls an AdvancedSubscriber's callback under a lock that every vehicle of the key shares, so a wait
 //! there would hold them all. What finds no room is refused and told (`queue_full`).
 //!
-//! The routed inputs of a fleet (`service::membership::Routing`) and the ROS 2 edge's subscriptions
+//! The routed inputs of a fleet (`fleet::membership::Routing`) and the ROS 2 edge's subscriptions
 //! (`ros2::net`) stay plain subscriptions with the same callback ([`Intake::plain`]): route
 //! subscriptions come and go with the fleet's membership, and a new AdvancedSubscriber would ask every
 //! publisher of the route for its cache again, inputs the previous owner already used; rmw_zenoh's

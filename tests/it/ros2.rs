@@ -1,4 +1,4 @@
-//! The ROS 2 edge in process (`service::ros2`, proto/ros2.md): an Imu message feeds exactly the path of
+//! The ROS 2 edge in process (`ros2`, proto/ros2.md): an Imu message feeds exactly the path of
 //! `P/V/imu` (the same estimates, bit for bit), the magnetometer is paired with its sample, the Imu out
 //! carries the sample's stamp, the bias-corrected rate and the specific force; the preset
 //! `config/ros2.json5` is `config/imu.json5` with the edge on. (The codec and the hashes are checked
