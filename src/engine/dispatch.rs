@@ -21,8 +21,9 @@ const DISPATCH_BATCH: usize = 64;
 const TELL_S: f64 = 0.01;
 
 impl Engine {
-    /// The dispatcher thread: the inputs in arrival order, and the tasks it is given between them, until the ingest channel says stop. Between them it tells what the subscribers could not
-    /// hand over (`Engine::tell_untold`), at least every [`TELL_S`].
+    /// The dispatcher thread: the inputs in arrival order, and the tasks it is given between them,
+    /// until the ingest channel says stop. Between them it tells what the subscribers could not hand
+    /// over (`Engine::tell_untold`), at least every [`TELL_S`].
     pub(super) fn dispatcher(
         &self,
         ingest: crossbeam_channel::Receiver<Option<Ingest>>,
