@@ -2,16 +2,16 @@
 """Side-by-side run of a peer on the same data: the `vqf` package against our MEKF on one BROAD trial.
 
     .venv/bin/python benches/vqf_compare.py /work/shared/data/broad/07_undisturbed_fast_rotation_B.hdf5 \
-        [--json] [--bin target/release/attitude-service] [--repeat 3] [--no-python-loop] \
+        [--json] [--bin target/release/attitude-lab] [--repeat 3] [--no-python-loop] \
         [--bench [--particles N] [--seconds S]]
 
-The binary never runs this script: it is the script that runs the binary (`imu-bench`, and `bench` with
+The binary never runs this script: it is the script that runs the lab binary (`imu-bench`, and `bench` with
 `--bench`) and VQF (the `vqf` package of the project's .venv, created by scripts/python-tests.sh).
 
 What it does:
 
 1. Reads the trial (`imu_gyr` rad/s, `imu_acc` m/s², `imu_mag` µT, `opt_quat` [w,x,y,z] body→ENU, `movement`,
-   attribute `sampling_rate`) and writes the trial file of `attitude-service imu-bench` (the format of
+   attribute `sampling_rate`) and writes the trial file of `attitude-lab imu-bench` (the format of
    `scripts/broad-export.py`: little-endian f64, `[n, rate_hz, 15]`, then per sample
    `[t, gyr(3), acc(3), mag(3), opt_quat(4), movement]`).
 2. Runs VQF (Laidig & Seel 2023, PyPI `vqf`) three ways and times each (wall clock, best of `--repeat`;
@@ -22,11 +22,11 @@ What it does:
      measures the Python/Cython call overhead per sample.
    * `offlineVQF(gyr, acc, mag, Ts)`: the acausal offline variant, for information (it may use future samples,
      so its accuracy is not comparable to a causal filter's).
-3. Runs `attitude-service imu-bench --trial FILE --config config/imu.json5 [--estimates-out FILE]` (`--repeat`
+3. Runs `attitude-lab imu-bench --trial FILE --config config/imu.json5 [--estimates-out FILE]` (`--repeat`
    times, best of) and reads its JSON line (`samples_per_s`: the trial through one vehicle of the service's
    pipeline with the MEKF, in one process, no network, file I/O excluded; process start-up is not counted for
    either side). ratio = MEKF samples/s ÷ VQF `updateBatch` samples/s.
-4. With `--bench`, first runs `attitude-service bench [--json] --particles N --seconds S` (each filter's step
+4. With `--bench`, first runs `attitude-lab bench [--json] --particles N --seconds S` (each filter's step
    cost against the MEKF) and prints its table before the comparison's; with `--json`, prints one object:
    `bench --json`'s with the comparison's object under `"vqf"`.
 5. Scores both with the BROAD metric (`example_code/broad_utils.py`): `e = q_est ⊗ q_opt⁻¹` (Hamilton, earth-frame
@@ -213,7 +213,7 @@ def run_vqf_others(trial: dict, repeat: int, online_loop: bool, batch_quat: np.n
 
 
 def mekf_once(bin_path: Path, samples: Path, estimates: Path | None, n: int) -> dict:
-    """One run of `attitude-service imu-bench`; its JSON line (the timing is the binary's own)."""
+    """One run of `attitude-lab imu-bench`; its JSON line (the timing is the binary's own)."""
     cmd = [str(bin_path), "imu-bench", "--trial", str(samples), "--config", str(ROOT / "config" / "imu.json5")]
     if estimates is not None:
         cmd += ["--estimates-out", str(estimates)]
@@ -230,7 +230,7 @@ def mekf_once(bin_path: Path, samples: Path, estimates: Path | None, n: int) -> 
 
 
 def run_bench(bin_path: Path, particles: int, seconds: float, as_json: bool) -> str | dict:
-    """`attitude-service bench`: its table (text), or its JSON object with `as_json`."""
+    """`attitude-lab bench`: its table (text), or its JSON object with `as_json`."""
     cmd = [str(bin_path), "bench", "--particles", str(particles), "--seconds", str(seconds)]
     if as_json:
         cmd.append("--json")
@@ -279,8 +279,8 @@ def main() -> int:
     ap.add_argument(
         "--bin",
         type=Path,
-        default=Path(os.environ.get("ATTITUDE_SERVICE_BIN", ROOT / "target/release/attitude-service")),
-        help="the attitude-service binary (default: $ATTITUDE_SERVICE_BIN or target/release/attitude-service)",
+        default=Path(os.environ.get("ATTITUDE_LAB_BIN", ROOT / "target/release/attitude-lab")),
+        help="the attitude-lab binary (default: $ATTITUDE_LAB_BIN or target/release/attitude-lab)",
     )
     ap.add_argument("--repeat", type=int, default=3, help="timed runs of each estimator; the best counts")
     ap.add_argument("--no-python-loop", action="store_true", help="skip VQF's slow per-sample Python loop")
@@ -288,7 +288,7 @@ def main() -> int:
     ap.add_argument(
         "--bench",
         action="store_true",
-        help="also run `attitude-service bench` (each filter's step cost against the MEKF) and print it first; "
+        help="also run `attitude-lab bench` (each filter's step cost against the MEKF) and print it first; "
         'with --json, one object: bench\'s, with this comparison under "vqf"',
     )
     ap.add_argument("--particles", type=int, default=1000, help="with --bench: particles of the particle filter")
@@ -359,7 +359,7 @@ def main() -> int:
     print(f"{trial['name']}: {n} samples at {trial['rate_hz']:.3f} Hz, best of {args.repeat} runs\n")
     print(f"{'estimator':<34} {'samples/s':>12} {'total°':>8} {'heading°':>9} {'incl.°':>8} {'hdg off°':>9}")
     rows = [
-        ("MEKF (attitude-service imu-bench)", mekf["samples_per_s"], scores["mekf"]),
+        ("MEKF (attitude-lab imu-bench)", mekf["samples_per_s"], scores["mekf"]),
         ("VQF updateBatch (C++ loop)", vqf["batch"]["samples_per_s"], scores["vqf"]),
     ]
     if "python_loop" in vqf:

@@ -10,8 +10,8 @@ SWEEP_RUNS=${SWEEP_RUNS:-100}
 SEED=${SEED:-1}
 PAIRED_RUNS=${PAIRED_RUNS:-200}
 ALL=mekf,usque:propagated,usque:average,qpf:propagated,qpf:average
-cargo build --release --locked
-bin=./target/release/attitude-service
+cargo build --release --locked -p attitude-lab
+bin=./target/release/attitude-lab
 out=docs/accuracy
 mkdir -p "$out"
 for scenario in star-tracker magnetometer-leo lost-in-space; do

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # The particle filter's step cost of two builds, measured alternately on this machine (a busy machine
-# slows both alike): `attitude-service bench --json` of OLD and NEW, ROUNDS rounds each, and the median
+# slows both alike): `attitude-lab bench --json` of OLD and NEW, ROUNDS rounds each, and the median
 # of the per-round ratios NEW/OLD of `qpf_ns_per_particle_step` (and of each build's ratio to its own
 # MEKF, which cancels the machine's load once more).
 #   scripts/bench-vs.sh OLD_BINARY NEW_BINARY [ROUNDS=7] [extra bench options, e.g. --particles 4000]
-# A baseline binary: `git worktree add /tmp/base main && cargo build --release` there (or any older
-# build's target/release/attitude-service).
+# A baseline binary: `git worktree add /tmp/base main && cargo build --release -p attitude-lab` there (or
+# any older build's target/release/attitude-lab; builds before the lab had its own binary:
+# target/release/attitude-service, which then had `bench`).
 set -euo pipefail
 old=$1; new=$2; rounds=${3:-7}; shift $(( $# < 3 ? $# : 3 ))
 out=$(mktemp -d)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Exports BROAD trials (HDF5) into the trial files of `attitude-service imu-study` and `imu-bench`.
+"""Exports BROAD trials (HDF5) into the trial files of `attitude-lab imu-study` and `imu-bench`.
 
     .venv/bin/python scripts/broad-export.py TRIAL.hdf5 [...] --out DIR [--csv]
         [--truth-tilt-sigma-deg S] [--truth-time-sigma-s S]

@@ -10,7 +10,7 @@
 # Starts `attitude-service serve --config config/imu.json5` on a free port, replays each trial (one vehicle
 # per filter, one after the other; the QPF with the preset's particles), stops the service, and writes per trial
 # OUT_DIR/TRIAL.json (the --json line) and OUT_DIR/TRIAL.details.json. The tuning record is what
-# `attitude-service imu-study TRIALS --tune config/imu-tuning.json5 --loo --out FILE` writes.
+# `attitude-lab imu-study TRIALS --tune config/imu-tuning.json5 --loo --out FILE` writes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DATA=${1:-../shared/data/broad}

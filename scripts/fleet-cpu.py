@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """CPU accounting of a fleet (issue 19): the same load on one instance and on dynamic fleets of N members.
 
-    scripts/fleet-cpu.py [--bin BINARY] [--filter mekf|qpf:average] [--vehicles 500] [--rate 10]
+    scripts/fleet-cpu.py [--bin BINARY] [--lab LAB_BINARY] [--filter mekf|qpf:average] [--vehicles 500] [--rate 10]
                          [--duration 20] [--members 1,2,3,4] [--repeat 3] [--json FILE] [-- LOADGEN ARGS]
 
 For each repeat and each N: N `serve` processes on loopback (N = 1: a lone `serve`, single mode; N > 1:
 `serve --fleet`, members m1..mN, zenoh peers, each listening on its own port, m2.. connecting to m1),
 started under `nice -n -19` (a shared machine's other jobs then take the other cores, not these), the
-fleet given time to agree on its members, then `loadgen` (also under `nice -n -19`) connecting to every
+fleet given time to agree on its members, then the lab's `loadgen` (also under `nice -n -19`; --lab, default
+target/release/attitude-lab) connecting to every
 member sends the load: --vehicles vehicles, each a vector set and a gyro sample per tick at --rate Hz, for
 --duration s. Each member's CPU seconds over the load (utime + stime of /proc/PID/stat, read before
 loadgen starts and after it ends) are summed; the table shows the sum, its ratio to the lone instance's
@@ -138,7 +139,7 @@ def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_e
         # Declarations settle, and the takeovers of the start are over (their grace: 2 s).
         time.sleep(3.0)
         before = {name: cpu_s(member_pid(p)) for name, p, _ in procs}
-        cmd = ["nice", "-n", "-19", args.bin, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate)]
+        cmd = ["nice", "-n", "-19", args.lab, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate)]
         cmd += ["--duration", str(args.duration), "--json"]
         for p in [router] if router else [f"tcp/127.0.0.1:{p}" for p in ports]:
             cmd += ["--connect", p]
@@ -177,6 +178,7 @@ def main() -> None:
         argv, extra = argv[:i], argv[i + 1 :]
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bin", default=str(ROOT / "target" / "release" / "attitude-service"))
+    ap.add_argument("--lab", default=str(ROOT / "target" / "release" / "attitude-lab"), help="the binary of loadgen")
     ap.add_argument("--filter", default="mekf")
     ap.add_argument("--vehicles", type=int, default=500)
     ap.add_argument("--rate", type=float, default=10.0)

@@ -2,10 +2,10 @@
 """The largest fleet run this machine allows, measured (issue 19; DEPLOYMENT.md, "A plan to 100 000 vehicles").
 
     .venv/bin/python scripts/fleet-scale.py [--vehicles 10000] [--rate 1] [--duration 60] [--members 4]
-                                            [--filter mekf] [--bin BINARY] [--json FILE]
+                                            [--filter mekf] [--bin BINARY] [--lab LAB_BINARY] [--json FILE]
 
 Two zenohd routers (R2 connects to R1: two sites), `--members` instances of a dynamic fleet (`serve
---fleet`, zenoh clients, half on each router), and `loadgen --routed` on R2 sending every vehicle's
+--fleet`, zenoh clients, half on each router), and `attitude-lab loadgen --routed` on R2 sending every vehicle's
 vector set and gyro sample at `--rate` Hz (routed keys, and batches for the routes' standby members) and
 receiving every estimate. Measured over the load: each process's CPU seconds (/proc/PID/stat), the bytes
 every TCP connection carried (`ss -tin`: bytes_received and bytes_acked at the start and the end, by
@@ -60,6 +60,7 @@ def sockets() -> dict[tuple[int, str, str], tuple[int, int]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bin", default=str(ROOT / "target" / "release" / "attitude-service"))
+    ap.add_argument("--lab", default=str(ROOT / "target" / "release" / "attitude-lab"), help="the binary of loadgen")
     ap.add_argument("--vehicles", type=int, default=10000)
     ap.add_argument("--rate", type=float, default=1.0)
     ap.add_argument("--duration", type=float, default=60.0)
@@ -121,7 +122,7 @@ def main() -> None:
         socks0 = sockets()
         t0 = time.monotonic()
         lg = subprocess.run(
-            ["nice", "-n", "-19", args.bin, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate),
+            ["nice", "-n", "-19", args.lab, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate),
              "--duration", str(args.duration), "--connect", r2, "--routed", "--json"],
             capture_output=True, text=True,
         )

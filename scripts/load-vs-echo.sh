@@ -2,7 +2,7 @@
 # The service under `loadgen` against `loadgen --echo`, alternating in one session, so that every figure
 # has its baseline measured in the same minutes of this shared machine (issue 15, deliver 3).
 #
-#   scripts/load-vs-echo.sh [-r ROUNDS] [-d SECONDS] [-b BINARY] [-o OTHER_BINARY] [CASE ...]
+#   scripts/load-vs-echo.sh [-r ROUNDS] [-d SECONDS] [-b BINARY] [-o OTHER_BINARY] [-l LAB_BINARY] [CASE ...]
 #   (run it under `nice -n -19` to keep other jobs of a shared machine from deciding the figures)
 #
 # Cases (default: qpf mekf imu imu-capped):
@@ -16,7 +16,8 @@
 #   imu-capped  the same with service.imu.max_estimate_rate_hz = 100 (an estimate per vehicle every
 #         10 ms of samples; `loadgen --capped`: an estimate answers the samples up to its time)
 # Each round runs, per case, the echo, then the service of BINARY (default target/release), then (with
-# -o) the service of OTHER_BINARY (e.g. a build of main), each on a fresh service process. It prints
+# -o) the service of OTHER_BINARY (e.g. a build of main), each on a fresh service process; the load
+# (`loadgen`) and `bench` are LAB_BINARY's (default target/release/attitude-lab). It prints
 # one line per run (estimates/s, lost, rejected, p50, p99, max, the service's CPU seconds per 1000
 # estimates and its peak RSS) and, per case, the median over the rounds of each run's p99 over the
 # echo's p99 of the same round. Each round starts with the machine's state: the load average and
@@ -24,11 +25,11 @@
 # The raw JSON of every run stays in the output folder it names.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-rounds=1; dur=20; bin=target/release/attitude-service; other=""
-while getopts "r:d:b:o:" opt; do
+rounds=1; dur=20; bin=target/release/attitude-service; other=""; lab=target/release/attitude-lab
+while getopts "r:d:b:o:l:" opt; do
   case $opt in
-    r) rounds=$OPTARG ;; d) dur=$OPTARG ;; b) bin=$OPTARG ;; o) other=$OPTARG ;;
-    *) sed -n 4,18p "$0"; exit 2 ;;
+    r) rounds=$OPTARG ;; d) dur=$OPTARG ;; b) bin=$OPTARG ;; o) other=$OPTARG ;; l) lab=$OPTARG ;;
+    *) sed -n 4,19p "$0"; exit 2 ;;
   esac
 done
 shift $((OPTIND - 1))
@@ -58,7 +59,7 @@ run() {
   local case=$1 label=$2 b=${3:-} json=$out/$1-$2-$4.json
   # shellcheck disable=SC2046
   if [[ -z $b ]]; then
-    $bin loadgen $(load_args "$case") --echo --json > "$json"
+    $lab loadgen $(load_args "$case") --echo --json > "$json"
     echo '{}' > "$json.service"
   else
     port=$((port + 1))
@@ -68,7 +69,7 @@ run() {
     local peak=0 cpu0 cpu1
     cpu0=$(awk '{print $14 + $15}' "/proc/$pid/stat")
     # shellcheck disable=SC2046
-    $bin loadgen $(load_args "$case") --connect "tcp/127.0.0.1:$port" --json > "$json" &
+    $lab loadgen $(load_args "$case") --connect "tcp/127.0.0.1:$port" --json > "$json" &
     local lg=$!
     while kill -0 $lg 2> /dev/null; do
       local rss; rss=$(awk '/VmRSS/{print $2}' "/proc/$pid/status" 2> /dev/null || echo 0)
@@ -87,10 +88,10 @@ run() {
       | @tsv' "$json" "$json.service"
 }
 
-echo "output: $out; $rounds round(s) of ${cases[*]}, $dur s each; binary $bin${other:+, other $other}"
+echo "output: $out; $rounds round(s) of ${cases[*]}, $dur s each; binary $bin${other:+, other $other}; lab $lab"
 printf 'case\trun\test/s\tlost\trej\tp50ms\tp99ms\tmaxms\tcpu_us/est\trssMB\tlag_ms\n'
 for r in $(seq 1 "$rounds"); do
-  step=$($bin bench --json --seconds 1 | jq '.qpf_us_per_step * 10 | round / 10')
+  step=$($lab bench --json --seconds 1 | jq '.qpf_us_per_step * 10 | round / 10')
   echo "# round $r: load average $(cut -d' ' -f1-3 /proc/loadavg), qpf:average step $step µs (bench)"
   for c in "${cases[@]}"; do
     run "$c" echo "" "$r"

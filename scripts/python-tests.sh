@@ -96,18 +96,21 @@ then
   "$PY" -m pip install -q --disable-pip-version-check --no-deps -e "$ROOT/clients/python"
 fi
 
+# The service binary, and the lab's (attitude-lab: imu-study, imu-bench, bench, quadrature), both built by
+# one workspace build.
 BIN="$ROOT/target/release/attitude-service"
-if [[ ! -x "$BIN" ]]; then
-  echo "python-tests: $BIN is missing; building it (with the DDS plugin: --features dds)" >&2
+LAB="$ROOT/target/release/attitude-lab"
+if [[ ! -x "$BIN" || ! -x "$LAB" ]]; then
+  echo "python-tests: $BIN or $LAB is missing; building both (with the DDS plugin: --features dds)" >&2
   bash "$ROOT/scripts/install-build-deps.sh"
-  cargo build --release --locked --features dds
+  cargo build --release --locked --workspace --features attitude-service/dds
 fi
 
 # The zenoh router of the fleet tests (tests/python/test_fleet.py), built once into a cache.
 bash "$ROOT/scripts/ensure-zenohd.sh" >/dev/null
 
 set +e
-ATTITUDE_SERVICE_BIN="$BIN" "$PY" -m pytest -q tests/python "$@"
+ATTITUDE_SERVICE_BIN="$BIN" ATTITUDE_LAB_BIN="$LAB" "$PY" -m pytest -q tests/python "$@"
 code=$?
 set -e
 exit "$code"

@@ -13,8 +13,8 @@ RUNS=${RUNS:-100}
 SEED=${SEED:-1}
 PAIRED_RUNS=${PAIRED_RUNS:-200}
 FILTERS=usque:propagated,usque:average,sghqf:propagated,sghqf:average
-cargo build --release --locked
-bin=./target/release/attitude-service
+cargo build --release --locked -p attitude-lab
+bin=./target/release/attitude-lab
 out=docs/accuracy
 mkdir -p "$out"
 for scenario in star-tracker magnetometer-leo lost-in-space; do

@@ -5,7 +5,7 @@
 #      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all, the
 #      release binary included);
 #   3. the black-box Python suite (eclipse-zenoh 1.10.2 in .venv, created and filled from PyPI) against
-#      the release binary.
+#      the release binaries (attitude-service, and attitude-lab for the studies and benches).
 # Needs a Rust toolchain, a C toolchain and python3 (cmake and libclang for the `dds` feature come from
 # scripts/install-build-deps.sh). Installs Python packages into .venv in the project, and the zenoh
 # router zenohd 1.10.2 once into ~/.cache/attitude-service (scripts/ensure-zenohd.sh; ZENOHD_CACHE moves it).
@@ -17,15 +17,17 @@ cargo fmt --all -- --check
 
 # The `dds` feature (the ROS 2 edge on DDS, zenoh-plugin-ros2dds) builds CycloneDDS from C: cmake and
 # libclang, installed by apt-get when missing. Everything is built once, with the feature, by `cargo
-# test`: it builds the release binary for the integration tests too (target/release/attitude-service,
-# which the Python suite runs), so a separate `cargo build`, whose dependencies' features differ from the
-# tests' (dev-dependencies unify theirs), would only compile zenoh a second time.
+# test`: it builds the workspace's release binaries for the integration tests too
+# (target/release/attitude-service and target/release/attitude-lab, which the Python suite runs), so a
+# separate `cargo build`, whose dependencies' features differ from the tests' (dev-dependencies unify
+# theirs), would only compile zenoh a second time.
 echo "== build dependencies of the dds feature"
 bash scripts/install-build-deps.sh
 
-echo "== cargo test --release --workspace --features dds (builds the binary as well)"
+echo "== cargo test --release --workspace --features dds (builds both binaries as well)"
 cargo test --release --workspace --all-targets --locked --features attitude-service/dds
 test -x target/release/attitude-service
+test -x target/release/attitude-lab
 
 echo "== python black-box tests"
 bash scripts/python-tests.sh

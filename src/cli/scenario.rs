@@ -1,4 +1,4 @@
-//! The scenario options shared by the studies, `simulate` and `demo`, and the parameters they make.
+//! The scenario options shared by `simulate`, `demo` and the lab's studies, and the parameters they make.
 
 use crate::sim::{BiasSpec, InitialError, ScenarioName, ScenarioParams, DEG, DEG_PER_HR};
 use anyhow::{bail, Result};
@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 /// The scenario and its overrides (studies, simulate, demo).
 #[derive(Args, Clone)]
 pub struct ScenarioArgs {
-    /// Scenario: star-tracker, magnetometer-leo or lost-in-space (see `scenarios`). Required, except
+    /// Scenario: star-tracker, magnetometer-leo or lost-in-space (see `attitude-lab scenarios`). Required, except
     /// for `demo` (magnetometer-leo).
     #[arg(long)]
     pub scenario: Option<ScenarioName>,
@@ -74,12 +74,4 @@ pub fn scenario_from_args(args: &ScenarioArgs) -> Result<ScenarioParams> {
     p.validate()
         .map_err(|e| anyhow::anyhow!("invalid scenario parameters: {e}"))?;
     Ok(p)
-}
-
-/// `scenarios`: every standard scenario and its parameters.
-pub fn list_scenarios() -> Result<()> {
-    for name in ScenarioName::ALL {
-        println!("{}\n", ScenarioParams::default_for(name).describe());
-    }
-    Ok(())
 }

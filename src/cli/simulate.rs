@@ -119,8 +119,8 @@ fn fleet_options(fleet: &FleetArgs, d: FleetDefaults) -> Result<SimulateOptions>
     })
 }
 
-/// How a fleet command's (or `loadgen`'s) inputs are put: `--plain`, `--cache`.
-pub(super) fn publishing(plain: bool, cache: usize) -> Result<Publishing> {
+/// How a fleet command's (or the lab's `loadgen`'s) inputs are put: `--plain`, `--cache`.
+pub fn publishing(plain: bool, cache: usize) -> Result<Publishing> {
     if cache == 0 {
         bail!("--cache must be at least 1");
     }

@@ -1,6 +1,6 @@
 //! Tidy rules: the numeric core (the crate `attitude-core`) does no I/O, no async, no JSON, no
 //! printing: its manifest has no such dependency (so the compiler refuses any), and its code no file
-//! or console access.
+//! or console access. Nothing depends on the laboratory (the crate `attitude-lab`).
 
 use crate::common::repo;
 use std::path::Path;
@@ -118,11 +118,12 @@ fn numeric_core_does_no_io() {
     );
 }
 
-/// Every `.rs` file of both crates, with its code above the unit tests.
+/// Every `.rs` file of the three crates, with its code above the unit tests.
 fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
     let mut files = Vec::new();
     rust_files(&root.join("src"), &mut files);
     rust_files(&root.join("crates/attitude-core/src"), &mut files);
+    rust_files(&root.join("crates/attitude-lab/src"), &mut files);
     files
         .into_iter()
         .map(|f| {
@@ -136,7 +137,12 @@ fn library_code(root: &Path) -> Vec<(std::path::PathBuf, String)> {
 #[test]
 fn anyhow_only_in_the_command_layer() {
     let root = repo();
-    let allowed = [root.join("src/main.rs"), root.join("src/cli")];
+    let allowed = [
+        root.join("src/main.rs"),
+        root.join("src/cli"),
+        root.join("crates/attitude-lab/src/main.rs"),
+        root.join("crates/attitude-lab/src/cli"),
+    ];
     let violations: Vec<String> = library_code(root)
         .into_iter()
         .filter(|(f, _)| !allowed.iter().any(|a| f.starts_with(a)))
@@ -240,6 +246,8 @@ fn layers_import_downwards() {
         ),
         (&["src/fleet"], &["crate::ros2"]),
         (&["src/ros2"], &["crate::fleet"]),
+        // The laboratory is above the service and the core: neither names it.
+        (&["src", "crates/attitude-core/src"], &["attitude_lab"]),
     ];
     let mut violations = Vec::new();
     for (layer, above) in rules {
@@ -267,6 +275,40 @@ fn layers_import_downwards() {
         "imports against the layers:\n{}",
         violations.join("\n")
     );
+}
+
+/// Nothing depends on the laboratory: the service's and the core's manifests name neither the crate
+/// `attitude-lab` nor what only the lab needs (plotters for its figures, indicatif for its progress
+/// bars, criterion for its benches), so the service binary is built and shipped without them; the lab's
+/// manifest names them and depends on the service and the core.
+#[test]
+fn nothing_depends_on_the_lab_and_the_service_builds_without_its_crates() {
+    let root = repo();
+    let lab_only = ["attitude-lab", "plotters", "indicatif", "criterion"];
+    for manifest in ["Cargo.toml", "crates/attitude-core/Cargo.toml"] {
+        let text = std::fs::read_to_string(root.join(manifest)).unwrap();
+        for line in text.lines().filter(|l| !l.trim_start().starts_with('#')) {
+            let name = line.split('=').next().unwrap_or("").trim();
+            assert!(!lab_only.contains(&name), "{manifest} names {name}");
+        }
+    }
+    let lab = std::fs::read_to_string(root.join("crates/attitude-lab/Cargo.toml")).unwrap();
+    let names: Vec<&str> = lab
+        .lines()
+        .map(|l| l.split('=').next().unwrap_or("").trim())
+        .collect();
+    for needed in [
+        "attitude-service",
+        "attitude-core",
+        "plotters",
+        "indicatif",
+        "criterion",
+    ] {
+        assert!(
+            names.contains(&needed),
+            "crates/attitude-lab/Cargo.toml: no {needed}"
+        );
+    }
 }
 
 /// The persisted cases of the property tests are replayed only from where proptest reads them: with

@@ -1,7 +1,8 @@
 """Fixtures of the black-box tests: the real `attitude-service serve` binary on a free port, and clients.
 
-The binary is `target/release/attitude-service` (or `$ATTITUDE_SERVICE_BIN`); `scripts/python-tests.sh`
-builds it when it is missing. Every wait has a deadline.
+The binary is `target/release/attitude-service` (or `$ATTITUDE_SERVICE_BIN`), and the laboratory's, for the
+studies and benches (imu-study, quadrature), `target/release/attitude-lab` (or `$ATTITUDE_LAB_BIN`);
+`scripts/python-tests.sh` builds them when one is missing. Every wait has a deadline.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ if not pathlib.Path(attitude_client.__file__).resolve().is_relative_to(ROOT / "c
     )
 
 BIN = pathlib.Path(os.environ.get("ATTITUDE_SERVICE_BIN", ROOT / "target" / "release" / "attitude-service"))
+LAB = pathlib.Path(os.environ.get("ATTITUDE_LAB_BIN", ROOT / "target" / "release" / "attitude-lab"))
 SCHEMAS = ROOT / "proto" / "schemas"
 
 #: The prefix of the shared service: two chunks, to exercise a multi-chunk prefix.

@@ -1,5 +1,5 @@
 """Any IMU, any rate (issue 26): the committed BROAD excerpts altered as another sensor or driver would have given
-them, through the service's vehicle pipeline (`attitude-service imu-study`, the code a `serve` vehicle runs, with
+them, through the service's vehicle pipeline (`attitude-lab imu-study`, the code a `serve` vehicle runs, with
 config/imu.json5), scored beside VQF on the very same altered samples (`attitude_client.alter`, docs/recordings.md).
 
 Each alteration keeps the truth; what changes is what the estimator sees: another rate (25, 40, 50, 100 Hz, the
@@ -27,7 +27,7 @@ import pytest
 
 from attitude_client.alter import alter, write_csv
 from attitude_client.replay import broad_scores, load_trial, run_vqf
-from conftest import BIN, ROOT, free_port
+from conftest import BIN, LAB, ROOT, free_port
 
 DATA = ROOT / "tests" / "data" / "broad"
 EXCERPTS = ("16_undisturbed_fast_translation_B_excerpt", "34_disturbed_attached_magnet_3cm_excerpt")
@@ -103,7 +103,7 @@ def ours(altered):
     """imu-study over every altered trial: {name: the study's result}."""
     folder, _ = altered
     run = subprocess.run(
-        [str(BIN), "imu-study", str(folder), "--config", str(ROOT / "config" / "imu.json5"), "--json"],
+        [str(LAB), "imu-study", str(folder), "--config", str(ROOT / "config" / "imu.json5"), "--json"],
         capture_output=True,
         text=True,
         timeout=600,

@@ -1,6 +1,6 @@
 """One BROAD metric: attitude_client.replay's `broad_scores` gives the numbers of src/study/broad.rs.
 
-`attitude-service imu-study` runs both committed excerpts (tests/data/broad/, exported by scripts/broad-export.py)
+`attitude-lab imu-study` runs both committed excerpts (tests/data/broad/, exported by scripts/broad-export.py)
 through the service's vehicle pipeline, scores them in Rust and writes every sample's estimate (`--series`: q and the
 attitude covariance, printed to round-trip); `broad_scores` on those estimates, with the truth and `movement` as
 attitude_client.replay reads them from the HDF5 files, must give the same accuracy and honesty figures. The MEKF and the QPF
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from attitude_client.replay import ACCURACY_KEYS, HONESTY_KEYS, broad_scores, load_trial, quatmult
-from conftest import BIN, ROOT
+from conftest import LAB, ROOT
 
 DATA = ROOT / "tests" / "data" / "broad"
 EXCERPTS = ["16_undisturbed_fast_translation_B_excerpt", "34_disturbed_attached_magnet_3cm_excerpt"]
@@ -44,7 +44,7 @@ def test_python_scores_equal_the_rust_scores(tmp_path, spec):
     )
     assert exported.returncode == 0, exported.stderr
     out = subprocess.run(
-        [str(BIN), "imu-study", str(tmp_path / "trials"), "--config", str(ROOT / "config" / "imu.json5"), "--json",
+        [str(LAB), "imu-study", str(tmp_path / "trials"), "--config", str(ROOT / "config" / "imu.json5"), "--json",
          "--series", str(tmp_path / "series"), *spec],
         capture_output=True, text=True, timeout=120,
     )

@@ -16,7 +16,7 @@ sample, no rest detection, no hard-iron fit) fails. Measured (total RMSE °; til
 With the preset of issue 26 (tuned on BROAD and two other sensors): MEKF 16 0.81; 0.995, 1.27, 1.000 and 34 1.04;
 0.992, 2.00, 1.000; the QPF at this test's tags 34 2.14 (0.54× VQF, the seed's spread below).
 
-(The same seed and samples give the same figures run after run; the MEKF's equal `attitude-service imu-study`'s.)
+(The same seed and samples give the same figures run after run; the MEKF's equal `attitude-lab imu-study`'s.)
 The QPF's figure is one seed of a wide spread: with 200 particles its heading wanders by the seed. Over other tags
 (seeds) the total RMSE on 16 had median 1.04° and 90th percentile 1.42° (24 seeds; the scalar particle filter before
 issue 15: 1.06°, 1.46°), on 34 median 1.26°, 90th percentile 1.72°, worst 1.97° (48 seeds; before: 1.29°, 1.76°,

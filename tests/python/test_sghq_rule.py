@@ -1,7 +1,7 @@
 """The SGHQF's sparse-grid Gauss–Hermite rules against an independent implementation, chaospy (PyPI),
 point by point.
 
-Our rules come from the binary (`attitude-service quadrature`, the core's `filters::sghqf::rule`).
+Our rules come from the binary (`attitude-lab quadrature`, the core's `filters::sghqf::rule`).
 chaospy builds Smolyak sparse grids from its own univariate Gaussian rules for N(0, 1) (Golub–Welsch
 on the Stieltjes recurrence) and its own combination code:
 
@@ -27,7 +27,7 @@ import chaospy  # noqa: F401  (a missing oracle fails here, loudly)
 import numpy as np
 import pytest
 
-from conftest import BIN
+from conftest import LAB
 
 DIM = 6
 #: Merged weights below this are cancellations to rounding, not points (the core's MERGED_ZERO).
@@ -37,10 +37,10 @@ KEY_DIGITS = 9
 
 
 def ours(level: int, growth: str, dim: int = DIM) -> tuple[np.ndarray, np.ndarray]:
-    if not BIN.exists():
-        pytest.fail(f"{BIN} does not exist: build it (cargo build --release) or run scripts/python-tests.sh")
+    if not LAB.exists():
+        pytest.fail(f"{LAB} does not exist: build it (cargo build --release -p attitude-lab) or run scripts/python-tests.sh")
     out = subprocess.run(
-        [str(BIN), "quadrature", "--dim", str(dim), "--level", str(level), "--growth", growth],
+        [str(LAB), "quadrature", "--dim", str(dim), "--level", str(level), "--growth", growth],
         check=True,
         capture_output=True,
         text=True,

@@ -1,4 +1,4 @@
-"""Our MEKF (attitude-service imu-bench: the service's vehicle pipeline, no network) beside VQF on a real
+"""Our MEKF (attitude-lab imu-bench: the service's vehicle pipeline, no network) beside VQF on a real
 BROAD excerpt committed in tests/data/broad (trial 16, fast translations).
 
 Data: BROAD (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021), CC-BY-4.0.
@@ -19,7 +19,7 @@ TRIAL = ROOT / "tests" / "data" / "broad" / "16_undisturbed_fast_translation_B_e
 
 def test_mekf_and_vqf_side_by_side_on_broad():
     assert TRIAL.exists(), f"{TRIAL} is missing: the test data of the repository (tests/data/broad/README.md)"
-    binary = os.environ.get("ATTITUDE_SERVICE_BIN", str(ROOT / "target" / "release" / "attitude-service"))
+    binary = os.environ.get("ATTITUDE_LAB_BIN", str(ROOT / "target" / "release" / "attitude-lab"))
     out = subprocess.run(
         [sys.executable, str(ROOT / "benches" / "vqf_compare.py"), str(TRIAL), "--json",
          "--no-python-loop", "--repeat", "1", "--bin", binary],
@@ -48,9 +48,9 @@ def test_mekf_and_vqf_side_by_side_on_broad():
 
 
 def test_bench_beside_vqf_is_the_script_calling_the_binary():
-    """`vqf_compare.py --bench` (what `attitude-service bench --vqf` was): the binary's `bench --json` object
-    with the comparison under "vqf"; the binary itself runs no Python."""
-    binary = os.environ.get("ATTITUDE_SERVICE_BIN", str(ROOT / "target" / "release" / "attitude-service"))
+    """`vqf_compare.py --bench` (what `attitude-service bench --vqf` was): the lab binary's `bench --json`
+    object with the comparison under "vqf"; the binary itself runs no Python."""
+    binary = os.environ.get("ATTITUDE_LAB_BIN", str(ROOT / "target" / "release" / "attitude-lab"))
     out = subprocess.run(
         [sys.executable, str(ROOT / "benches" / "vqf_compare.py"), str(TRIAL), "--json", "--bench",
          "--seconds", "0.05", "--particles", "200", "--no-python-loop", "--repeat", "1", "--bin", binary],

@@ -9,7 +9,7 @@ Every alteration keeps the meaning of a sample: sample k's gyro rate covers ``(t
 IMU drivers, VQF and the service), so a lower rate is the mean of the source's rates over each new interval (what a
 sensor's own decimation filter gives, and exactly the same rotation to first order); the accelerometer and the
 magnetometer are averaged over the same interval (anti-aliased); the truth and ``movement`` are the source's at the
-interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attitude-service imu-study`` and
+interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attitude-lab imu-study`` and
 ``attitude-replay`` read, with the source's truth description (``align`` etc.) kept.
 
 * ``--rate HZ``: resample onto a grid at HZ (below the source's rate).

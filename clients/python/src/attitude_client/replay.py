@@ -26,7 +26,7 @@ What it does (it never starts the service):
    ``queue_per_vehicle``).
 3. Collects the estimate of each sample (matched by ``t``): its ``q`` and the attitude block of its ``cov`` (the
    body-frame attitude error, rad²). A sample without an estimate is left out of the scores, as
-   ``attitude-service imu-study`` does, and counted: ``aligning`` before the vehicle's first estimate (the
+   ``attitude-lab imu-study`` does, and counted: ``aligning`` before the vehicle's first estimate (the
    pipeline averages its first ``service.imu.init.duration_s`` of samples), ``missing`` after it (lost, or
    thinned by ``service.imu.max_estimate_rate_hz``). Runs VQF (PyPI ``vqf``, 9D) and Madgwick (PyPI ``ahrs``,
    MARG, gain β = 0.12, BROAD's TAGP value for Madgwick) on the same samples.

@@ -35,7 +35,7 @@ fn ensure_font() -> Result<(), String> {
         plotters::style::register_font(
             FONT,
             plotters::style::FontStyle::Normal,
-            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
+            include_bytes!("../../../../assets/fonts/DejaVuSans.ttf"),
         )
         .is_ok()
     });

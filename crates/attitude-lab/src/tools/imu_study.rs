@@ -1,8 +1,8 @@
-//! `attitude-service imu-study`: recorded IMU trials through the vehicle pipeline of the service, in
+//! `attitude-lab imu-study`: recorded IMU trials through the vehicle pipeline of the service, in
 //! one process, scored against their truth ([`crate::study::broad`]).
 //!
 //! Every sample goes through [`VehicleState`], the very state machine a `serve` vehicle runs (time
-//! checks, the raw-IMU sensor models of [`crate::ahrs`], the filter, health), with the configuration
+//! checks, the raw-IMU sensor models of [`attitude_core::ahrs`], the filter, health), with the configuration
 //! read from a file (`config/imu.json5` by default) and optionally changed field by field
 //! (`--set service.imu.acc.motion_gain=1.5`). Nothing of the pipeline is repeated here: a study and a
 //! tuning measure what the service does.
@@ -19,13 +19,13 @@
 //! `truth_time_sigma_s: 0.01`), a header line naming the fifteen columns above, then one line per
 //! sample; an empty truth field is unknown.
 
-use crate::attitude::Quaternion;
-use crate::filters::FilterSpec;
-use crate::sensors::{ImuSample, Measurement};
-use crate::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
 use crate::study::broad::{score_with, Align, Sample, Scores, TruthModel};
-use crate::vehicle::{Event, ImuDiagnostics, Published, VehicleState};
-use crate::wire::ImuDiagnosticsMsg;
+use attitude_core::attitude::Quaternion;
+use attitude_core::filters::FilterSpec;
+use attitude_core::sensors::{ImuSample, Measurement};
+use attitude_core::vehicle::{Event, ImuDiagnostics, Published, VehicleState};
+use attitude_service::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
+use attitude_service::wire::ImuDiagnosticsMsg;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

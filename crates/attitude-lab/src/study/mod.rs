@@ -20,7 +20,7 @@ pub mod report;
 pub mod runner;
 pub mod sweep;
 
-use crate::filters::FilterSpec;
+use attitude_core::filters::FilterSpec;
 
 /// Per-run statistics and a decimated time series for plots.
 #[derive(Clone, Debug, Default)]

@@ -1,7 +1,7 @@
 //! A particle-filter loop for profilers (perf, callgrind), and the large-cloud measurement:
 //! `cargo run --release --example qpf_profile -- [steps] [particles] [spec] [threads] [lost]`.
 //!
-//! Default: the steady state of `attitude-service bench` (three star vectors per step). With `lost`:
+//! Default: the steady state of `attitude-lab bench` (three star vectors per step). With `lost`:
 //! lost in space from a single vector: one field-like direction per second (σ = 0.01 rad, its reference
 //! turning as a field along an orbit) from a uniformly random start, so that the first steps reweigh a
 //! diffuse cloud in many progressive-correction stages, resample and regularise. `threads` caps the
@@ -9,13 +9,13 @@
 //! process's CPU time over its wall time (`/proc/self/stat`): about 2 when a pass runs on both cores
 //! of this machine, and below 1 when other processes take the cores.
 
-use attitude_service::attitude::Quaternion;
-use attitude_service::filters::qpf::set_max_threads;
-use attitude_service::filters::{build_filter, FilterConfig, InitialState};
-use attitude_service::sensors::{
+use attitude_core::attitude::Quaternion;
+use attitude_core::filters::qpf::set_max_threads;
+use attitude_core::filters::{build_filter, FilterConfig, InitialState};
+use attitude_core::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
-use attitude_service::tools::bench::SteadyState;
+use attitude_lab::tools::bench::SteadyState;
 use nalgebra::Vector3;
 
 /// User + system CPU time of this process, s (Linux; 0 elsewhere).

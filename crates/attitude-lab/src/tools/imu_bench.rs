@@ -1,11 +1,11 @@
-//! `attitude-service imu-bench`: one recorded IMU trial through a vehicle of the service, in one process
+//! `attitude-lab imu-bench`: one recorded IMU trial through a vehicle of the service, in one process
 //! and without the network, timed: the Rust half of `benches/vqf_compare.py`, which runs the `vqf`
 //! package on the same samples of a BROAD trial (Laidig, Caruso, Cereatti, Seel, *Data* 6(7), 2021,
 //! CC-BY-4.0) and reports the speed ratio and the benchmark's errors of both.
 //!
 //! Nothing of the pipeline is here: the samples go as `P/V/imu` inputs through
 //! [`crate::tools::imu_study::feed_trial`], i.e. the service's `VehicleState` with the sensor models of
-//! [`crate::ahrs`] and the configuration of a file (`config/imu.json5` by default), and every estimate
+//! [`attitude_core::ahrs`] and the configuration of a file (`config/imu.json5` by default), and every estimate
 //! the vehicle publishes comes back here ([`bench_trial`]), which keeps its attitude (what the
 //! estimates file holds; the study keeps the covariance and a series as well). The input is a trial
 //! file of `scripts/broad-export.py` ([`crate::tools::imu_study`] documents it).
@@ -15,8 +15,8 @@
 //! [`Quaternion`]'s components), `w ≥ 0`; NaN for the samples of the alignment, which have none.
 
 use super::imu_study::{feed_trial, load_config, read_trial, Setup, StudyError, Trial};
-use crate::attitude::Quaternion;
-use crate::filters::FilterSpec;
+use attitude_core::attitude::Quaternion;
+use attitude_core::filters::FilterSpec;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
@@ -72,7 +72,7 @@ pub fn write_estimates(path: &Path, estimates: &[Option<Quaternion>]) -> Result<
     })
 }
 
-/// `attitude-service imu-bench --trial FILE [--config FILE] [--set PATH=JSON]... [--filter SPEC]
+/// `attitude-lab imu-bench --trial FILE [--config FILE] [--set PATH=JSON]... [--filter SPEC]
 /// [--estimates-out FILE]`: runs the trial through one vehicle, timed (the whole per-sample loop,
 /// estimates included; file reading and writing excluded), and returns the JSON line to print:
 /// `{"samples", "seconds", "samples_per_s", "published", "rejected", "filter"}`.
@@ -105,8 +105,8 @@ pub fn main_entry(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sensors::ImuSample;
     use crate::tools::imu_study::{trial_to_bytes, Trial};
+    use attitude_core::sensors::ImuSample;
     use nalgebra::Vector3;
 
     /// 3 s at rest, then 4 s at a constant rate, exact readings; gyro sample k is the rate over
@@ -158,7 +158,10 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let (input, output) = (dir.join("t.trial"), dir.join("e.bin"));
         std::fs::write(&input, trial_to_bytes(&trial)).unwrap();
-        let config = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/config/imu.json5"));
+        let config = Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/imu.json5"
+        ));
         let line = main_entry(&input, config, &[], None, Some(&output)).unwrap();
         let json: serde_json::Value = serde_json::from_str(&line).unwrap();
         assert_eq!(json["samples"], 700);

@@ -1,4 +1,4 @@
-//! `attitude-service loadgen`: publishes gyro and vector messages (or raw IMU samples, `--imu N`: puts of
+//! `attitude-lab loadgen`: publishes gyro and vector messages (or raw IMU samples, `--imu N`: puts of
 //! N samples on `P/V/imu`, each sample answered by an estimate) for K vehicles at a fixed rate against a
 //! running service and measures sustained throughput and put→estimate latency; `--echo` measures a bare
 //! zenoh put→reply round trip through a trivial echo (subscribe to `P/*/vectors` and `P/*/imu`, put the
@@ -8,14 +8,14 @@
 //! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts by default, not
 //! a publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives or puts against
 //! all the declarations it knows, so thousands of declared keys would cost the receiver (service or
-//! echo) far more than they save. `--advanced` puts through advanced publishers ([`super::publish`]: a
+//! echo) far more than they save. `--advanced` puts through advanced publishers ([`attitude_service::tools::publish`]: a
 //! sequence number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a
 //! token each: what that costs the service is measured in BENCHMARKS.md.
 
-use super::publish::{Inputs, Publishing};
-use crate::fleet::sender::{RoutedSender, FLUSH_S};
-use crate::wire::keys::{Keys, Leaf};
-use crate::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
+use attitude_service::fleet::sender::{RoutedSender, FLUSH_S};
+use attitude_service::tools::publish::{Inputs, Publishing};
+use attitude_service::wire::keys::{Keys, Leaf};
+use attitude_service::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -44,7 +44,7 @@ pub struct LoadOptions {
     /// counted, has the last samples answered too.
     pub covering: bool,
     /// Inputs on their routed keys, and batched for the routes' standby members
-    /// ([`super::routed`]): how a fleet scales.
+    /// ([`attitude_service::fleet::sender`]): how a fleet scales.
     pub routed: bool,
     /// Each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as
     /// independent vehicles send, instead of every vehicle's at the start of each period (a burst).
@@ -98,8 +98,9 @@ pub async fn count_rejections(
         .declare_subscriber(keys.all(Leaf::Rejected))
         .callback(move |s: zenoh::sample::Sample| {
             // (A `gap` is told on the same key but is no refusal: `--capped` sends one on purpose.)
-            let gap = serde_json::from_slice::<crate::wire::ErrorMsg>(&s.payload().to_bytes())
-                .is_ok_and(|m| m.code == "gap");
+            let gap =
+                serde_json::from_slice::<attitude_service::wire::ErrorMsg>(&s.payload().to_bytes())
+                    .is_ok_and(|m| m.code == "gap");
             if !gap
                 && k.split(s.key_expr().as_str())
                     .is_some_and(|(v, _)| index.contains_key(v))
@@ -223,8 +224,9 @@ pub async fn echo(session: &zenoh::Session, keys: &Keys) -> Result<Echo, zenoh::
             session
                 .declare_subscriber(key)
                 .callback(move |s: zenoh::sample::Sample| {
-                    if let Some(crate::wire::keys::Received::Vehicle { vehicle, .. }) =
-                        k.classify(s.key_expr().as_str())
+                    if let Some(attitude_service::wire::keys::Received::Vehicle {
+                        vehicle, ..
+                    }) = k.classify(s.key_expr().as_str())
                     {
                         let _ = zenoh::Wait::wait(
                             publisher
@@ -323,7 +325,7 @@ async fn probe_on(
 /// A raw IMU sample of vehicle `i` at `t`: turning slowly about a tilted axis, gravity and a field seen
 /// from that attitude (the pipeline has real work: tilt, heading, no rest).
 pub fn imu_sample(t: f64, i: usize) -> ImuMsg {
-    use crate::attitude::Quaternion;
+    use attitude_core::attitude::Quaternion;
     use nalgebra::Vector3;
     let w = Vector3::new(0.1, -0.05, 0.2 + 0.01 * (i % 7) as f64);
     let q = Quaternion::from_rotation_vector(&(w * t));

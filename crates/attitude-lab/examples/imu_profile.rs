@@ -1,9 +1,9 @@
 //! One recorded IMU trial through a vehicle of the service, over and over, for profilers (perf,
-//! callgrind): the loop of `attitude-service imu-bench` without the process start-up and file reading
+//! callgrind): the loop of `attitude-lab imu-bench` without the process start-up and file reading
 //! in every run. `cargo run --release --example imu_profile -- TRIAL [runs] [config]`.
 
-use attitude_service::tools::imu_bench::bench_trial;
-use attitude_service::tools::imu_study::{load_config, read_trial, Setup};
+use attitude_lab::tools::imu_bench::bench_trial;
+use attitude_lab::tools::imu_study::{load_config, read_trial, Setup};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};

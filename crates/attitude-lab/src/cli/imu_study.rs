@@ -1,12 +1,12 @@
 //! `imu-study`: recorded IMU trials through the service's vehicle pipeline ([`crate::tools::imu_study`]),
 //! scored, printed as a table or JSON; with `--tune`, the tuning by coordinate descent and leave-one-out.
 
-use crate::filters::FilterSpec;
 use crate::tools::imu_study::{
     load_config, objective, read_trial, start_point, study, table, trial_paths, Setup, Trial,
     TuneSpec, Tuner,
 };
 use anyhow::Result;
+use attitude_core::filters::FilterSpec;
 use clap::Args;
 use std::path::PathBuf;
 

@@ -3,10 +3,10 @@
 //! (our Ziggurat against `rand_distr::StandardNormal`). `cargo bench`; one group: `cargo bench --bench
 //! filters -- normal`.
 
-use attitude_service::attitude::{weighted_average, Quaternion};
-use attitude_service::rng::{fill_normals, ziggurat, Xoshiro256PlusPlus};
-use attitude_service::simd::Isa;
-use attitude_service::tools::bench::SteadyState;
+use attitude_core::attitude::{weighted_average, Quaternion};
+use attitude_core::rng::{fill_normals, ziggurat, Xoshiro256PlusPlus};
+use attitude_core::simd::Isa;
+use attitude_lab::tools::bench::SteadyState;
 use attitude_service::wire::{decode_batch, EstimateMsg, GyroMsg, ImuMsg, VectorsMsg};
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use nalgebra::Vector3;

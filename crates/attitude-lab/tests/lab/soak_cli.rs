@@ -1,13 +1,13 @@
-//! The `soak` command end to end, briefly: the real binary starts the real service as its child,
+//! The `soak` command end to end, briefly: the lab binary starts the real service binary as its child,
 //! streams for 12 s and reports one JSON object.
 
-use crate::common::service_bin;
+use crate::common::{lab_bin, service_bin_path};
 use std::time::{Duration, Instant};
 
 #[test]
 fn a_short_soak_reports_every_field_and_receives_estimates() {
     let started = Instant::now();
-    let output = service_bin()
+    let output = lab_bin()
         .args([
             "soak",
             "--vehicles",
@@ -18,6 +18,8 @@ fn a_short_soak_reports_every_field_and_receives_estimates() {
             "mekf",
             "--json",
         ])
+        .arg("--service-bin")
+        .arg(service_bin_path())
         .output()
         .expect("the binary runs");
     let stderr = String::from_utf8_lossy(&output.stderr);

@@ -23,7 +23,7 @@
 //!
 //! Errors on real recordings are strongly autocorrelated: about one independent sample per 10 s.
 
-use crate::attitude::Quaternion;
+use attitude_core::attitude::Quaternion;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
 /// χ²₂ 99% quantile.
@@ -127,7 +127,7 @@ pub fn alignment(
         return None;
     }
     let average_l = |r: &Quaternion, previous: Option<&Quaternion>| {
-        let mut acc = crate::attitude::AverageAccumulator::new();
+        let mut acc = attitude_core::attitude::AverageAccumulator::new();
         for (e, t) in &pairs {
             acc.add(&ham(&ham(t, &r.inverse()), &e.inverse()), 1.0);
         }
@@ -137,7 +137,7 @@ pub fn alignment(
     let mut l = average_l(&r, None)?;
     for _ in 0..50 {
         let l_new = average_l(&r, Some(&l))?;
-        let mut acc = crate::attitude::AverageAccumulator::new();
+        let mut acc = attitude_core::attitude::AverageAccumulator::new();
         for (e, t) in &pairs {
             acc.add(&ham(&ham(&e.inverse(), &l_new.inverse()), t), 1.0);
         }
@@ -419,8 +419,8 @@ mod tests {
         for _ in 0..n {
             // A body-frame error with covariance σ² I (the truth's own tilt error is added by the
             // score, so the draw includes it on the horizontal axes).
-            let mut d = crate::sensors::gyro::normal3(&mut rng) * sigma;
-            let extra = crate::sensors::gyro::normal3(&mut rng) * TRUTH_TILT_SIGMA_RAD;
+            let mut d = attitude_core::sensors::gyro::normal3(&mut rng) * sigma;
+            let extra = attitude_core::sensors::gyro::normal3(&mut rng) * TRUTH_TILT_SIGMA_RAD;
             let r = truth.attitude_matrix();
             // Only the horizontal part of the truth's error, in the body frame.
             let extra_ref = Vector3::new(extra[0], extra[1], 0.0);

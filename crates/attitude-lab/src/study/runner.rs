@@ -5,12 +5,12 @@
 //! (except the wall-clock timings).
 
 use super::{FilterResult, FilterSummary, RunTrace, StudyResult};
-use crate::bounds::Pcrb;
-use crate::filters::{build_filter, FilterConfig, FilterKind, FilterSpec, InitialState};
-use crate::rng::derive_seed;
-use crate::sensors::Measurement;
-use crate::sim::scenario::{simulate, ScenarioParams, SimulatedRun};
-use crate::stats::chi_square_quantile;
+use attitude_core::bounds::Pcrb;
+use attitude_core::filters::{build_filter, FilterConfig, FilterKind, FilterSpec, InitialState};
+use attitude_core::rng::derive_seed;
+use attitude_core::sensors::Measurement;
+use attitude_core::sim::scenario::{simulate, ScenarioParams, SimulatedRun};
+use attitude_core::stats::chi_square_quantile;
 use nalgebra::{Matrix3, Vector3};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -124,7 +124,7 @@ fn pcrb_along_truth(config: &StudyConfig, sim: &SimulatedRun) -> Vec<[f64; 3]> {
     out
 }
 
-fn truth_at(sim: &SimulatedRun, t_s: f64, dt_s: f64) -> &crate::sim::scenario::TruthSample {
+fn truth_at(sim: &SimulatedRun, t_s: f64, dt_s: f64) -> &attitude_core::sim::scenario::TruthSample {
     let k = ((t_s - sim.truth[0].t_s) / dt_s).round().max(0.0) as usize;
     &sim.truth[k.min(sim.truth.len() - 1)]
 }

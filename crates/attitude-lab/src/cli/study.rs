@@ -1,12 +1,12 @@
 //! `montecarlo` and `sweep`: the accuracy studies of [`crate::study`], with a progress bar, their report
 //! written and the markdown printed.
 
-use super::scenario::{scenario_from_args, ScenarioArgs};
-use crate::filters::FilterSpec;
 use crate::study::report::write_report;
 use crate::study::runner::{run_study, StudyConfig};
 use crate::study::sweep::{run_sweep, write_sweep_report};
 use anyhow::{bail, Context, Result};
+use attitude_core::filters::FilterSpec;
+use attitude_service::cli::scenario::{scenario_from_args, ScenarioArgs};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -22,7 +22,7 @@ pub struct MontecarloArgs {
     #[arg(long, default_value_t = 1000)]
     particles: usize,
     /// Sparse-grid level of the SGHQF (2..=4).
-    #[arg(long, default_value_t = crate::filters::sghqf::DEFAULT_LEVEL,
+    #[arg(long, default_value_t = attitude_core::filters::sghqf::DEFAULT_LEVEL,
           value_parser = clap::value_parser!(u8).range(2..=4))]
     level: u8,
     #[command(flatten)]
@@ -89,7 +89,7 @@ fn study_config(
         runs: args.runs,
         seed: args.seed,
         particles,
-        level: crate::filters::sghqf::DEFAULT_LEVEL,
+        level: attitude_core::filters::sghqf::DEFAULT_LEVEL,
         skip_refused: args.skip_refused,
         jobs,
     })

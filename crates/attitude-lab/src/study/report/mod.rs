@@ -400,9 +400,9 @@ fn markdown(study: &StudyResult, unit: AngleUnit, plots: &[PlotOutcome]) -> Stri
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::filters::FilterSpec;
     use crate::study::plot::tick;
     use crate::study::{FilterResult, RunTrace};
+    use attitude_core::filters::FilterSpec;
 
     fn unique_dir(tag: &str) -> PathBuf {
         let nanos = std::time::SystemTime::now()

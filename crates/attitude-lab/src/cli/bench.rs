@@ -1,9 +1,9 @@
 //! `bench` (each filter's step cost against the MEKF) and `imu-bench` (a recorded IMU trial through one
 //! vehicle, timed). VQF side by side is `benches/vqf_compare.py`, which calls these two commands.
 
-use crate::filters::FilterSpec;
-use crate::simd::Isa;
 use anyhow::{bail, Result};
+use attitude_core::filters::FilterSpec;
+use attitude_core::simd::Isa;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -58,7 +58,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     if let Err(isa) = Isa::force(args.isa) {
         bail!("this machine cannot run {}", isa.name());
     }
-    crate::filters::qpf::set_max_threads(args.threads.unwrap_or(0));
+    attitude_core::filters::qpf::set_max_threads(args.threads.unwrap_or(0));
     if let Some(counts) = args.curve {
         if counts.iter().any(|n| *n < 2) {
             bail!("--curve: every particle count must be at least 2");

@@ -1,10 +1,12 @@
-//! `attitude-service bench`: each filter's per-step cost on this machine (gyro propagation + an update
+//! `attitude-lab bench`: each filter's per-step cost on this machine (gyro propagation + an update
 //! with three vector observations, in steady state), with the MEKF as the baseline measured in the same
 //! run. The criterion benchmarks (`benches/filters.rs`) use the same steady-state generator.
 
-use crate::attitude::Quaternion;
-use crate::filters::{build_filter, AttitudeFilter, FilterConfig, FilterError, InitialState};
-use crate::sensors::{
+use attitude_core::attitude::Quaternion;
+use attitude_core::filters::{
+    build_filter, AttitudeFilter, FilterConfig, FilterError, InitialState,
+};
+use attitude_core::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
 use nalgebra::Vector3;
@@ -27,7 +29,7 @@ impl SteadyState {
     pub fn new(spec: &str, particles: usize) -> Result<Self, FilterError> {
         let spec = spec
             .parse()
-            .map_err(|e: crate::filters::ParseFilterSpecError| {
+            .map_err(|e: attitude_core::filters::ParseFilterSpecError| {
                 FilterError::InvalidConfig(e.to_string())
             })?;
         let mut config = FilterConfig::new(spec, GyroNoise::standard());
@@ -141,8 +143,8 @@ pub fn run(particles: usize, budget: Duration) -> Result<BenchReport, FilterErro
     let qpf_p = us(time_step("qpf:propagated", particles, budget)?);
     Ok(BenchReport {
         particles,
-        isa: crate::simd::Isa::active().name().to_string(),
-        qpf_threads: crate::filters::qpf::auto_threads(particles),
+        isa: attitude_core::simd::Isa::active().name().to_string(),
+        qpf_threads: attitude_core::filters::qpf::auto_threads(particles),
         mekf_us_per_step: mekf,
         usque_us_per_step: usque,
         usque_propagated_us_per_step: usque_p,
@@ -201,7 +203,7 @@ pub fn curve(counts: &[usize], budget: Duration) -> Result<Vec<CurvePoint>, Filt
             let t = time_step("qpf:average", n, budget)?.as_secs_f64();
             Ok(CurvePoint {
                 particles: n,
-                threads: crate::filters::qpf::auto_threads(n),
+                threads: attitude_core::filters::qpf::auto_threads(n),
                 qpf_us_per_step: t * 1e6,
                 qpf_ns_per_particle_step: t * 1e9 / n as f64,
             })

@@ -1,14 +1,15 @@
-//! `loadgen` (load against a running service, or a bare zenoh echo) and `soak` (a long run of this
-//! binary's `serve` under a steady load).
+//! `loadgen` (load against a running service, or a bare zenoh echo) and `soak` (a long run of the
+//! service binary's `serve` under a steady load).
 
-use super::config::peer_config;
-use super::runtime::init_logging;
-use crate::filters::FilterSpec;
-use crate::service::config as service_config;
 use crate::tools::{loadgen, soak};
-use crate::wire::keys::Keys;
 use anyhow::{bail, Context, Result};
+use attitude_core::filters::FilterSpec;
+use attitude_service::cli::config::peer_config;
+use attitude_service::cli::runtime::init_logging;
+use attitude_service::service::config as service_config;
+use attitude_service::wire::keys::Keys;
 use clap::Args;
+use std::path::PathBuf;
 use tokio_util::sync::CancellationToken;
 
 #[derive(Args)]
@@ -60,7 +61,7 @@ pub struct LoadgenArgs {
     #[arg(long)]
     advanced: bool,
     /// Puts each input key's advanced publisher keeps for the service to fetch again (--advanced).
-    #[arg(long, default_value_t = crate::tools::publish::CACHE)]
+    #[arg(long, default_value_t = attitude_service::tools::publish::CACHE)]
     cache: usize,
     /// Print one JSON object instead of a table.
     #[arg(long)]
@@ -84,9 +85,34 @@ pub struct SoakArgs {
     /// (the service's default 1000 particles).
     #[arg(long, default_value = "qpf")]
     filter: FilterSpec,
+    /// The `attitude-service` binary that runs `serve` (default: $ATTITUDE_SERVICE_BIN, else the one
+    /// beside this binary, as Cargo builds both into one folder).
+    #[arg(long)]
+    service_bin: Option<PathBuf>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+/// The service binary `soak` starts: the one given, else `$ATTITUDE_SERVICE_BIN`, else
+/// `attitude-service` in this binary's folder.
+fn service_binary(given: Option<PathBuf>) -> Result<PathBuf> {
+    if let Some(path) =
+        given.or_else(|| std::env::var_os("ATTITUDE_SERVICE_BIN").map(PathBuf::from))
+    {
+        return Ok(path);
+    }
+    let here = std::env::current_exe().context("locating this binary")?;
+    let beside = here
+        .with_file_name("attitude-service")
+        .with_extension(std::env::consts::EXE_EXTENSION);
+    if !beside.is_file() {
+        bail!(
+            "no service binary beside {} (build it: cargo build --release), or give --service-bin",
+            here.display()
+        );
+    }
+    Ok(beside)
 }
 
 /// `loadgen`: the load, then its report (a table, or one JSON object with `--json`).
@@ -107,7 +133,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
-        publishing: super::simulate::publishing(!args.advanced, args.cache)?,
+        publishing: attitude_service::cli::simulate::publishing(!args.advanced, args.cache)?,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {
@@ -155,7 +181,7 @@ pub async fn soak(args: SoakArgs, shutdown: CancellationToken) -> Result<()> {
         rate_hz: args.rate,
         minutes: args.minutes,
         filter: args.filter,
-        exe: std::env::current_exe().context("locating this binary")?,
+        exe: service_binary(args.service_bin)?,
     };
     let report = soak::run(&options, &shutdown)
         .await

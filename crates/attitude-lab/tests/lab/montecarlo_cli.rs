@@ -1,11 +1,11 @@
 //! The `montecarlo` command end to end: the real binary, real files.
 
-use crate::common::{assert_nees_with_power, scratch_dir, service_bin, CHI2_120};
-use attitude_service::study::FilterSummary;
+use crate::common::{assert_nees_with_power, lab_bin, scratch_dir, CHI2_120};
+use attitude_lab::study::FilterSummary;
 use std::path::Path;
 
 fn run(args: &[&str], out: &Path) -> Vec<FilterSummary> {
-    let output = service_bin()
+    let output = lab_bin()
         .arg("montecarlo")
         .args(args)
         .arg("--out")
@@ -211,7 +211,7 @@ fn bad_arguments_are_refused_with_a_reason() {
         ),
     ] {
         let out = scratch_dir("bad");
-        let output = service_bin()
+        let output = lab_bin()
             .arg("montecarlo")
             .args(&args)
             .arg("--out")
@@ -226,7 +226,7 @@ fn bad_arguments_are_refused_with_a_reason() {
 
 #[test]
 fn scenarios_command_documents_every_scenario() {
-    let output = service_bin().arg("scenarios").output().unwrap();
+    let output = lab_bin().arg("scenarios").output().unwrap();
     assert!(output.status.success());
     let text = String::from_utf8_lossy(&output.stdout);
     for name in ["star-tracker", "magnetometer-leo", "lost-in-space"] {
@@ -315,7 +315,7 @@ fn sghqf_rows_carry_their_level() {
 #[test]
 fn sweep_reports_one_row_per_particle_count() {
     let out = scratch_dir("sweep");
-    let output = service_bin()
+    let output = lab_bin()
         .args([
             "sweep",
             "--scenario",
@@ -441,7 +441,7 @@ fn qpf_average_converges_from_large_errors_and_reaches_the_bound() {
 
 #[test]
 fn bench_reports_every_filter_as_json() {
-    let output = service_bin()
+    let output = lab_bin()
         .args(["bench", "--json", "--seconds", "0.05", "--particles", "200"])
         .output()
         .unwrap();

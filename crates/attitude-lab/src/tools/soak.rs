@@ -1,6 +1,6 @@
-//! `attitude-service soak`: a long run of the real service under a steady load, watching for drift.
+//! `attitude-lab soak`: a long run of the real service under a steady load, watching for drift.
 //!
-//! Starts `serve` as a child process (this binary, a temporary configuration that gives every vehicle
+//! Starts `serve` as a child process (the `attitude-service` binary, a temporary configuration that gives every vehicle
 //! the chosen filter, a free loopback port), connects a zenoh client, and streams the load generator's
 //! messages (a gyro sample and a vector set of three stars per vehicle every 1/rate s, real time) for
 //! the whole run. The run is cut into equal windows; at the end of each it records the child's
@@ -9,12 +9,12 @@
 //! received. At the end it compares the first window with the last (memory and p99), stops the child
 //! with SIGTERM and reports how it exited. Not run in CI.
 
-use crate::filters::FilterSpec;
 use crate::tools::loadgen::{
     count_rejections, drain, latency_us, probe, star_set, time_key, Pending,
 };
-use crate::wire::keys::{Keys, Leaf};
-use crate::wire::GyroMsg;
+use attitude_core::filters::FilterSpec;
+use attitude_service::wire::keys::{Keys, Leaf};
+use attitude_service::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -46,7 +46,7 @@ pub struct SoakOptions {
     pub minutes: f64,
     /// The filter of every vehicle.
     pub filter: FilterSpec,
-    /// The binary that runs `serve` (normally this one).
+    /// The binary that runs `serve` (`attitude-service`, by default the one beside `attitude-lab`).
     pub exe: PathBuf,
 }
 
@@ -177,7 +177,7 @@ impl ServiceChild {
         ));
         let fiducial = filter.fiducial.map_or("average", |f| f.as_str());
         let text = format!(
-            "// attitude-service soak: every vehicle gets this filter.\n{{\n  service: {{\n    filter: {{ kind: \"{}\", fiducial: \"{fiducial}\" }},\n  }},\n}}\n",
+            "// attitude-lab soak: every vehicle gets this filter.\n{{\n  service: {{\n    filter: {{ kind: \"{}\", fiducial: \"{fiducial}\" }},\n  }},\n}}\n",
             filter.kind.as_str()
         );
         std::fs::write(&config, text)

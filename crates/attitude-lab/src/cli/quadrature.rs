@@ -2,8 +2,8 @@
 //! JSON, so that an independent implementation can be compared with it point by point
 //! (`tests/python/test_sghq_rule.py` runs chaospy against it).
 
-use crate::filters::sghqf::rule::{smolyak, Growth};
 use anyhow::Result;
+use attitude_core::filters::sghqf::rule::{smolyak, Growth};
 use clap::{Args, ValueEnum};
 
 #[derive(Clone, Copy, ValueEnum)]
