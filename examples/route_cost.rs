@@ -50,7 +50,7 @@ struct Layout {
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() {
-    use attitude_service::service::keys::route_of;
+    use attitude_service::wire::keys::route_of;
     let messages: u64 = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())

@@ -4,7 +4,7 @@
 
 use anyhow::Result;
 use attitude_service::cli::runtime::block_on_until_signal;
-use attitude_service::cli::{fleet, serve};
+use attitude_service::cli::{serve, simulate};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -27,18 +27,18 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Publishes a scenario's measurements for N simulated vehicles to a running service (and their
     /// truth on P/V/truth), in real time or faster.
-    Simulate(fleet::SimulateArgs),
+    Simulate(simulate::SimulateArgs),
     /// The service and simulated vehicles in one process over real zenoh, with a live table of each
     /// vehicle's error against the truth. By default: four vehicles with different filters on
     /// magnetometer-leo (initial errors up to 160°), 4 h of flight in about 30 s.
-    Demo(fleet::DemoArgs),
+    Demo(simulate::DemoArgs),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Serve(args) => block_on_until_signal(|stop| serve::serve(args, stop)),
-        Command::Simulate(args) => block_on_until_signal(|stop| fleet::simulate(args, stop)),
-        Command::Demo(args) => block_on_until_signal(|stop| fleet::demo(args, stop)),
+        Command::Simulate(args) => block_on_until_signal(|stop| simulate::simulate(args, stop)),
+        Command::Demo(args) => block_on_until_signal(|stop| simulate::demo(args, stop)),
     }
 }

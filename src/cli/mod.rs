@@ -5,19 +5,19 @@
 //!
 //! One file per group of commands:
 //! * `serve`: `serve`;
-//! * `fleet`: `simulate` and `demo`;
+//! * `simulate`: `simulate` and `demo`;
 //! * `scenario`: the scenario options `simulate` and `demo` share with the lab's studies;
 //! * `runtime`: the async runtime, the logging and the shutdown token (one per process, cancelled by
 //!   SIGINT or SIGTERM); `config`: the configuration file and the zenoh session configurations.
 //!
-//! `scenario`, `runtime`, `config` and `fleet::publishing` are public for the commands of the
+//! `scenario`, `runtime`, `config` and `simulate::publishing` are public for the commands of the
 //! laboratory's binary too (`attitude-lab`: its studies, benches, load and soak), so both binaries read
 //! scenarios, run, log and configure zenoh one way.
 //!
 //! Errors are `anyhow` here, and only here (and in `main.rs`): below this layer they are typed.
 
 pub mod config;
-pub mod fleet;
 pub mod runtime;
 pub mod scenario;
 pub mod serve;
+pub mod simulate;

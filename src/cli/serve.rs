@@ -75,9 +75,9 @@ pub async fn serve(args: ServeArgs, shutdown: CancellationToken) -> Result<()> {
         zc.insert_json5("plugins/rest/http_port", &serde_json::to_string(&port)?)
             .map_err(|e| anyhow::anyhow!("--rest-http-port: {e}"))?;
     }
-    // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (service::ros2::dds).
+    // The ROS 2 edge on DDS: zenoh-plugin-ros2dds in the service's runtime (ros2::dds).
     if let (true, Some(dds)) = (file.service.ros2.enabled, &file.service.ros2.dds) {
-        let key = format!("plugins/{}", crate::service::ros2::dds::PLUGIN);
+        let key = format!("plugins/{}", crate::ros2::dds::PLUGIN);
         zc.insert_json5(&key, &dds.to_string())
             .map_err(|e| anyhow::anyhow!("service.ros2.dds: {e}"))?;
         // The plugin's routes for transient-local topics (/rosout, /tf_static) need timestamps, as

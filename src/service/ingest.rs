@@ -26,16 +26,16 @@
 //! calls an AdvancedSubscriber's callback under a lock that every vehicle of the key shares, so a wait
 //! there would hold them all. What finds no room is refused and told (`queue_full`).
 //!
-//! The routed inputs of a fleet (`service::membership::Routing`) and the ROS 2 edge's subscriptions
+//! The routed inputs of a fleet (`fleet::membership::Routing`) and the ROS 2 edge's subscriptions
 //! (`ros2::net`) stay plain subscriptions with the same callback ([`Intake::plain`]): route
 //! subscriptions come and go with the fleet's membership, and a new AdvancedSubscriber would ask every
 //! publisher of the route for its cache again, inputs the previous owner already used; rmw_zenoh's
 //! sensor publishers (best effort, volatile) number nothing and cache nothing.
 
 use super::config::IngestConfig;
-use super::engine::{Engine, Inbound, Ingest};
-use super::keys::{Leaf, Received};
 use super::{zerr, ServiceError};
+use crate::engine::{Engine, Inbound, Ingest};
+use crate::wire::keys::{Leaf, Received};
 use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -1,29 +1,29 @@
-//! The network service: zenoh subscribers and queryables around the [`engine::Engine`].
+//! The network service: zenoh subscribers and queryables around the [`crate::engine::Engine`].
 //!
 //! `run(session, config, shutdown)` is the whole service, wired here: the outlets
-//! ([`outlets`]), the engine, the inputs ([`ingest`]), the ROS 2 edge ([`ros2`]), the route
-//! subscriptions and fleet membership ([`membership`]), the queryables ([`queryables`]), then one
-//! `select!` loop over the queries, the route plan and the shutdown signal. Subscriber callbacks only
+//! ([`outlets`]), the engine with its fleet member and ROS 2 edge ([`Node`]), the inputs
+//! ([`ingest`]), the ROS 2 edge on zenoh ([`crate::ros2::net`]), the route subscriptions and fleet
+//! membership ([`crate::fleet::membership`]), the queryables ([`crate::query::queryables`]), then
+//! one `select!` loop over the queries, the route plan and the shutdown signal. The rest of this
+//! folder: the configuration ([`config`]), the zenoh session ([`session`]), the checkpoints
+//! ([`persist`]). Subscriber callbacks only
 //! hand raw samples to the engine's bounded ingest channel; filters run on the engine's worker
 //! threads, never on zenoh's threads or the async runtime.
 
 pub mod config;
-pub mod engine;
-pub mod fleet;
 pub mod ingest;
-pub mod keys;
-mod membership;
+mod node;
 pub mod outlets;
 pub mod persist;
-mod queryables;
-pub mod ros2;
 pub mod session;
 
+pub use node::Node;
+
+use crate::fleet::membership::{self, Routing};
+use crate::fleet::FleetMode;
+use crate::query::queryables::Queryables;
+use crate::wire::keys::{Keys, Leaf};
 use config::ServiceConfig;
-use engine::Engine;
-use keys::{Keys, Leaf};
-use membership::Routing;
-use queryables::Queryables;
 use std::future::Future;
 use thiserror::Error;
 
@@ -37,7 +37,7 @@ pub enum ServiceError {
     State(#[from] persist::CheckpointError),
 }
 
-fn zerr(e: impl std::fmt::Display) -> ServiceError {
+pub(crate) fn zerr(e: impl std::fmt::Display) -> ServiceError {
     ServiceError::Zenoh(e.to_string())
 }
 
@@ -54,7 +54,12 @@ pub async fn run(
         &Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles),
     )
     .await?;
-    let (engine, threads) = Engine::start_with(config, sink, outlets)?;
+    let (node, threads) = Node::start_with(config, sink, outlets)?;
+    let Node {
+        engine,
+        member,
+        ros2,
+    } = node;
     let keys = engine.keys.clone();
 
     // The inputs (`service::ingest`): AdvancedSubscribers for the publishers that number their
@@ -73,20 +78,20 @@ pub async fn run(
     .await?;
     // The ROS 2 edge (service.ros2): its inputs go through the same callback. (Not routed: every
     // member of a fleet receives them, and the owner of the vehicle uses them.)
-    let ros2 = match engine.ros2() {
+    let ros2 = match ros2 {
         Some(edge) => {
-            Some(ros2::net::start(&session, &engine, edge.clone(), callback.clone()).await?)
+            Some(crate::ros2::net::start(&session, &engine, edge, callback.clone()).await?)
         }
         None => None,
     };
     // Routed inputs (`P/V/<leaf>/<r>`): a single instance takes every route; a member of a dynamic
     // fleet the routes it owns, and the standby batches of those it keeps, as they change (see
     // `membership::join_fleet`).
-    let dynamic = engine.config.fleet.mode == fleet::FleetMode::Dynamic;
+    let dynamic = engine.config.fleet.mode == FleetMode::Dynamic;
     let mut routing = Routing::new(keys.clone(), callback.clone());
     if !dynamic {
         routing
-            .apply(&session, &membership::static_plan(&engine))
+            .apply(&session, &membership::static_plan(&member))
             .await?;
     }
     let instance = engine.config.fleet.instance.clone();
@@ -94,9 +99,12 @@ pub async fn run(
     // (Following the route plan before joining: the first change after the join comes from the
     // members' thread at any moment, and a receiver made after it would take it as seen, leaving the
     // routes taken over without their input subscriptions until the next change.)
-    let mut plan = engine.route_plan();
+    let mut plan = member.route_plan();
     let joined = if dynamic {
-        Some(membership::join_fleet(&session, &engine, &threads.members, &mut routing).await?)
+        Some(
+            membership::join_fleet(&session, &engine, &member, &threads.tasks, &mut routing)
+                .await?,
+        )
     } else {
         None
     };
@@ -113,7 +121,9 @@ pub async fn run(
         tokio::select! {
             _ = &mut shutdown => break,
             Ok(()) = membership::plan_changed(&mut plan) => routing.follow(&session, &mut plan).await,
-            (i, q) = queryables.next() => queryables.answer(&engine, &threads, i, q).await,
+            (i, q) = queryables.next() => {
+                queryables.answer(&engine, &member, threads.ingest.len(), i, q).await
+            }
         }
     }
     tracing::info!("shutting down");

@@ -1,9 +1,9 @@
 //! The service's outputs: the sink the workers put rejections and standby batches through, and each
 //! vehicle's estimate outlet, put only while someone listens.
 
-use super::engine::{EstimateOutlet, Outlets, Sink};
-use super::keys::{Keys, Leaf};
 use super::{zerr, ServiceError};
+use crate::engine::{EstimateOutlet, Outlets, Sink};
+use crate::wire::keys::{Keys, Leaf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use zenoh::bytes::Encoding;
@@ -36,7 +36,7 @@ pub(super) fn sink(session: &zenoh::Session, keys: Keys) -> Sink {
     // `Block` applies back-pressure instead of silently dropping estimates. Not `express`: zenoh then
     // batches the messages that queue up while the link is busy (one write for many under load, the
     // same latency when idle) instead of a system call per message. Rejections are JSON; a fleet
-    // owner's batches of estimates for its standby members are binary (`wire::batch`).
+    // owner's batches of estimates for its standby members are binary (`fleet::batch`).
     Arc::new(move |key: &str, payload: Vec<u8>| {
         let encoding = if keys.is_standby(key) {
             Encoding::APPLICATION_OCTET_STREAM

@@ -14,7 +14,7 @@ use zenoh::internal::runtime::{Runtime, RuntimeBuilder};
 /// The key of the REST plugin's section in a zenoh configuration (zenohd's name for it).
 const REST: &str = "rest";
 /// zenoh-plugin-ros2dds' section (`ros2::dds`).
-const DDS: &str = super::ros2::dds::PLUGIN;
+const DDS: &str = crate::ros2::dds::PLUGIN;
 
 /// A session, and the runtime of its own that carries the REST plugin when there is one.
 pub struct ServiceSession {
@@ -121,7 +121,7 @@ fn declare_dds(
     plugin: &serde_json::Value,
 ) -> Result<(), ServiceError> {
     let env = |k: &str| std::env::var(k).ok();
-    if let Some(uri) = super::ros2::dds::cyclonedds_uri(plugin, &env) {
+    if let Some(uri) = crate::ros2::dds::cyclonedds_uri(plugin, &env) {
         // Read by CycloneDDS when the plugin creates its participant, as the plugin's own settings are.
         std::env::set_var("CYCLONEDDS_URI", uri);
     }

@@ -5,7 +5,7 @@
 use super::simulate::{simulate, SimulateError, SimulateOptions, SimulateStats};
 use crate::attitude::Quaternion;
 use crate::service::config::ServiceConfig;
-use crate::service::keys::{Keys, Leaf};
+use crate::wire::keys::{Keys, Leaf};
 use crate::wire::{EstimateMsg, QuaternionMsg, TruthMsg};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;

@@ -2,12 +2,12 @@
 //! service over zenoh, in real time or faster, with the truth on `P/V/truth`.
 
 use super::publish::{Inputs, Publishing};
-use super::routed::{RoutedSender, FLUSH_S};
 use crate::filters::FilterSpec;
+use crate::fleet::sender::{RoutedSender, FLUSH_S};
 use crate::rng::derive_seed;
 use crate::sensors::Measurement;
-use crate::service::keys::{Keys, Leaf};
 use crate::sim::{simulate as simulate_run, ScenarioParams, SimulatedRun};
+use crate::wire::keys::{Keys, Leaf};
 use crate::wire::{
     GyroMsg, ObservationMsg, PerAxis, QuaternionMsg, ResetMsg, ResetReplyMsg, TruthMsg, VectorsMsg,
 };

@@ -7,20 +7,17 @@
 //! `[δα (rad, body axes); δβ (rad/s)]`.
 
 mod admin;
-pub mod batch;
-pub mod cdr;
+mod estimate;
 mod input;
-mod output;
+pub mod keys;
 mod rejection;
 mod reset;
-mod ros2;
 
 pub use admin::*;
+pub use estimate::*;
 pub use input::*;
-pub use output::*;
 pub use rejection::*;
 pub use reset::*;
-pub use ros2::*;
 
 #[cfg(test)]
 mod tests {

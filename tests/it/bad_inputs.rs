@@ -18,8 +18,10 @@
 //! service gets wrong fails this test.
 
 use crate::common::{collecting_engine, proto_dir, service_config, wait_until, Outputs};
-use attitude_service::service::engine::{Engine, EngineThreads, Inbound, Ingest};
-use attitude_service::service::keys::{route_of, ROUTES};
+use attitude_service::engine::{Engine, EngineThreads, Inbound, Ingest};
+use attitude_service::query;
+use attitude_service::service::Node;
+use attitude_service::wire::keys::{route_of, ROUTES};
 use attitude_service::wire::{
     decode_one, ErrorMsg, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
 };
@@ -406,6 +408,7 @@ fn every_input_code_has_a_row() {
 
 /// An engine with a sink that collects `(key, payload)`.
 struct Run {
+    node: Node,
     engine: Arc<Engine>,
     threads: Option<EngineThreads>,
     out: Outputs,
@@ -425,9 +428,10 @@ impl Run {
             }
         })
         .to_string();
-        let (engine, threads, out) = collecting_engine(service_config(&text));
+        let (node, threads, out) = collecting_engine(service_config(&text));
         Run {
-            engine,
+            engine: node.engine.clone(),
+            node,
             threads: Some(threads),
             out,
         }
@@ -469,7 +473,9 @@ impl Run {
     }
 
     fn estimate(&self) -> Option<EstimateMsg> {
-        self.engine.state_of(HEALTHY).ok().map(|e| (*e).clone())
+        query::state_of(&self.engine, HEALTHY)
+            .ok()
+            .map(|e| (*e).clone())
     }
 
     /// The healthy vehicle of the setup, tracking at time 1.5 s: fed gyro samples, its estimate at 1 s
@@ -628,7 +634,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
 
     let s0 = run.estimate().expect("tracking");
     let info0 = run.engine.vehicle(HEALTHY).unwrap().info();
-    let h0 = run.engine.health();
+    let h0 = run.node.health();
     let existed = run.engine.vehicle(target).is_some();
     let n0 = run.outputs().len();
     let mut fails = vec![];
@@ -670,7 +676,7 @@ fn check(row: &Row, baselines: &mut HashMap<(String, Feed), EstimateMsg>) -> Vec
     // Right after the row: the healthy vehicle's estimate, its row, the counters.
     let s1 = run.estimate();
     let info1 = run.engine.vehicle(HEALTHY).unwrap().info();
-    let h1 = run.engine.health();
+    let h1 = run.node.health();
     if s1.as_ref() != Some(&s0) {
         fails.push(format!(
             "the healthy vehicle's estimate changed: t {} seq {} -> {:?}",

@@ -5,16 +5,17 @@
 
 use crate::common::{collecting_engine, repo, service_config, wait_until, Outputs};
 use attitude_service::attitude::Quaternion;
+use attitude_service::engine::{EngineThreads, Inbound};
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
+use attitude_service::fleet::owner;
+use attitude_service::query;
 use attitude_service::sensors::GyroNoise;
 use attitude_service::service::config::{override_fleet, parse, ServiceConfig};
-use attitude_service::service::engine::{Engine, Inbound};
-use attitude_service::service::fleet::owner;
+use attitude_service::service::Node;
 use attitude_service::vehicle::{TakeoverSeed, VehicleState};
 use attitude_service::wire::EstimateMsg;
 use nalgebra::{Matrix6, Vector3};
 use std::collections::{BTreeMap, BTreeSet};
-use std::sync::Arc;
 use std::time::Duration;
 
 /// A correlated, positive-definite covariance of `[δα; δβ]`.
@@ -135,13 +136,7 @@ fn a_vehicle_taken_over_continues_from_the_estimate() {
     assert!(TakeoverSeed::try_from(&broken).is_err());
 }
 
-fn member(
-    name: &str,
-) -> (
-    Arc<Engine>,
-    attitude_service::service::engine::EngineThreads,
-    Outputs,
-) {
+fn member(name: &str) -> (Node, EngineThreads, Outputs) {
     let mut config = service_config(
         r#"{ service: { key_prefix: "t", filter: { kind: "mekf" }, time: { reorder_window_s: 0.0 }, fleet: { flush_s: 0.02 } } }"#,
     );
@@ -181,8 +176,8 @@ fn a_member_takes_over_without_losing_a_set() {
     let (a, ta, out_a) = member("a");
     let (b, tb, out_b) = member("b");
     let both: BTreeSet<String> = ["a".to_string(), "b".to_string()].into();
-    ta.members.send(both.clone()).unwrap();
-    tb.members.send(both.clone()).unwrap();
+    a.set_members(&ta, both.clone());
+    b.set_members(&tb, both.clone());
     let vehicles: Vec<String> = (0..8).map(|i| format!("v{i}")).collect();
     let of_a: Vec<&String> = vehicles
         .iter()
@@ -243,13 +238,13 @@ fn a_member_takes_over_without_losing_a_set() {
     for v in &vehicles {
         assert_eq!(pa.contains_key(v), of_a.contains(&v), "{v}");
     }
-    assert_eq!(a.vehicles().len(), of_a.len());
-    assert_eq!(b.vehicles().len(), vehicles.len() - of_a.len());
+    assert_eq!(a.engine.vehicles().len(), of_a.len());
+    assert_eq!(b.engine.vehicles().len(), vehicles.len() - of_a.len());
     // a stops publishing: its last estimates reached b for sets 0..10; sets 10..13 reach only b (a
     // died before processing them); then b learns that a is gone.
     feed(10, 13, false);
     std::thread::sleep(Duration::from_millis(100));
-    tb.members.send(["b".to_string()].into()).unwrap();
+    b.set_members(&tb, ["b".to_string()].into());
     feed(13, 15, false);
     wait_until(
         "b to publish every set of every vehicle",
@@ -267,13 +262,13 @@ fn a_member_takes_over_without_losing_a_set() {
     for v in &of_a {
         // Sets 10..15 published by b, after a's 0..10: none lost, none repeated.
         assert_eq!(pb[*v], vec![10.0, 11.0, 12.0, 13.0, 14.0], "{v}");
-        let e = b.state_of(v).unwrap();
+        let e = query::state_of(&b.engine, v).unwrap();
         assert_eq!(e.seq, 15, "{v}: seq continues across the takeover");
         assert_eq!(e.diagnostics.reinits.get("takeover"), Some(&1));
         let q = Quaternion::new(e.q.x, e.q.y, e.q.z, e.q.w);
         assert!(q.compose(&truth.inverse()).angle() < 1e-3);
     }
-    assert_eq!(b.vehicles().len(), vehicles.len());
+    assert_eq!(b.engine.vehicles().len(), vehicles.len());
     let h = b.health().fleet.unwrap();
     assert_eq!(
         (h.takeovers, h.members.clone()),
@@ -289,7 +284,7 @@ fn the_shipped_fleet_instance_configuration_is_valid() {
     let path = repo().join("config/fleet/instance.json5");
     let file = attitude_service::service::config::load(&path).unwrap();
     let f = &file.service.fleet;
-    assert_eq!(f.mode, attitude_service::service::fleet::FleetMode::Dynamic);
+    assert_eq!(f.mode, attitude_service::fleet::FleetMode::Dynamic);
     assert!(f.standby_s > 3.0, "standby must cover the 3 s lease");
     // Bad fleet settings are refused with the option's name.
     for (bad, what) in [
@@ -314,20 +309,20 @@ fn the_shipped_fleet_instance_configuration_is_valid() {
 /// arrives both on its own and in a batch.
 #[test]
 fn routed_inputs_reach_owners_and_standbys_only() {
-    use attitude_service::service::fleet::Assignment;
-    use attitude_service::service::keys::{route_of, Keys, Leaf, ROUTES};
-    use attitude_service::wire::batch::{records, BatchWriter};
+    use attitude_service::fleet::batch::{records, BatchWriter};
+    use attitude_service::fleet::Assignment;
+    use attitude_service::wire::keys::{route_of, Keys, Leaf, ROUTES};
 
     let names = ["a", "b", "c", "d"];
     let members: Vec<_> = names.iter().map(|n| member(n)).collect();
     let everyone: BTreeSet<String> = names.iter().map(|s| s.to_string()).collect();
-    for (_, t, _) in &members {
-        t.members.send(everyone.clone()).unwrap();
+    for (e, t, _) in &members {
+        e.set_members(t, everyone.clone());
     }
     let plans = || -> Vec<_> {
         members
             .iter()
-            .map(|(e, _, _)| e.route_plan().unwrap().borrow().clone())
+            .map(|(e, _, _)| e.member.route_plan().unwrap().borrow().clone())
             .collect()
     };
     wait_until("every member's plan", Duration::from_secs(10), || {
@@ -493,8 +488,8 @@ fn routed_inputs_reach_owners_and_standbys_only() {
     }
     alive.borrow_mut()[0] = false;
     let rest: BTreeSet<String> = ["b", "c", "d"].iter().map(|s| s.to_string()).collect();
-    for (_, t, _) in &members[1..] {
-        t.members.send(rest.clone()).unwrap();
+    for (e, t, _) in &members[1..] {
+        e.set_members(t, rest.clone());
     }
     let after = Assignment::new(&rest).unwrap();
     for r in 0..ROUTES as u8 {
@@ -553,7 +548,7 @@ fn routed_inputs_reach_owners_and_standbys_only() {
                 names[j]
             );
         }
-        let e = members[i].0.state_of(v).unwrap();
+        let e = query::state_of(&members[i].0.engine, v).unwrap();
         assert_eq!(e.seq, 15, "{v}: seq continues across the takeover");
         assert_eq!(e.diagnostics.reinits.get("takeover"), Some(&1));
     }

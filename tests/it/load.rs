@@ -4,9 +4,10 @@
 
 use crate::common::{collecting_engine, free_port, open_zenoh, service_config, wait_until};
 use attitude_service::attitude::Quaternion;
-use attitude_service::service::engine::{Engine, EstimateOutlet, Inbound, Outlets, Sink};
-use attitude_service::service::keys::Keys;
+use attitude_service::engine::{Alone, Engine, EstimateOutlet, Inbound, Outlets, Sink};
+use attitude_service::query;
 use attitude_service::service::outlets::estimate_outlets;
+use attitude_service::wire::keys::Keys;
 use attitude_service::wire::{EstimateMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use nalgebra::Vector3;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -66,7 +67,7 @@ impl EstimateOutlet for Counting {
 }
 
 fn seq_of(engine: &Engine, vehicle: &str) -> u64 {
-    engine.state_of(vehicle).map(|e| e.seq).unwrap_or(0)
+    query::state_of(engine, vehicle).map(|e| e.seq).unwrap_or(0)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -90,7 +91,7 @@ async fn estimates_are_serialised_only_while_someone_subscribes() {
         r#"{ service: { key_prefix: "skip", filter: { kind: "mekf" }, time: { reorder_window_s: 0 } } }"#,
     );
     let sink: Sink = Arc::new(|_: &str, _: Vec<u8>| {});
-    let (engine, threads) = Engine::start_with(config, sink, counting).unwrap();
+    let (engine, threads) = Engine::start(config, sink, counting, Arc::new(Alone)).unwrap();
     let mut t = 0.0;
     let mut set = || {
         t += 1.0;
@@ -141,7 +142,7 @@ async fn estimates_are_serialised_only_while_someone_subscribes() {
     )
     .unwrap();
     let last = got.lock().unwrap().last().cloned().unwrap();
-    let snapshot = engine.state_of("v1").unwrap();
+    let snapshot = query::state_of(&engine, "v1").unwrap();
     assert_eq!(snapshot.seq, made, "no estimate since the last one was put");
     assert_eq!(last, serde_json::to_vec(&*snapshot).unwrap());
     let parsed: EstimateMsg = serde_json::from_slice(&last).unwrap();
@@ -176,7 +177,8 @@ async fn estimates_are_serialised_only_while_someone_subscribes() {
 
 /// The estimates an IMU vehicle publishes for 1.5 s of samples at 200 Hz, in batches of 10.
 fn imu_estimates(config: &str) -> (Vec<EstimateMsg>, u64) {
-    let (engine, threads, out) = collecting_engine(service_config(config));
+    let (node, threads, out) = collecting_engine(service_config(config));
+    let engine = node.engine.clone();
     let samples: Vec<ImuMsg> = (0..300).map(|k| imu_sample(k as f64 / 200.0, 3)).collect();
     for batch in samples.chunks(10) {
         engine.dispatch(Inbound {
@@ -185,7 +187,7 @@ fn imu_estimates(config: &str) -> (Vec<EstimateMsg>, u64) {
         });
     }
     wait_until("every sample processed", Duration::from_secs(20), || {
-        engine.health().processed == 300
+        node.health().processed == 300
     })
     .unwrap();
     threads.shutdown();
@@ -196,7 +198,7 @@ fn imu_estimates(config: &str) -> (Vec<EstimateMsg>, u64) {
         .filter(|(k, _)| k == "attitude/c1/estimate")
         .map(|(_, p)| serde_json::from_slice(p).unwrap())
         .collect();
-    (estimates, engine.health().estimates_published)
+    (estimates, node.health().estimates_published)
 }
 
 #[test]
@@ -231,10 +233,11 @@ fn a_vehicle_with_a_heavy_filter_and_a_backlog_does_not_hold_the_worker() {
     // One worker; a particle filter of 20 000 particles (a step of a millisecond or so) with 200
     // vector sets waiting, then one set of an MEKF vehicle: its estimate comes after a few of the
     // heavy steps (a worker's turn ends after 5 ms), not after all of them.
-    let (engine, threads, _out) = collecting_engine(service_config(
+    let (node, threads, _out) = collecting_engine(service_config(
         r#"{ service: { workers: 1, filter: { kind: "mekf" }, time: { reorder_window_s: 0 },
              vehicles: { heavy: { kind: "qpf", particles: 20000 } } } }"#,
     ));
+    let engine = node.engine.clone();
     let set = |vehicle: &str, t: f64| Inbound {
         key: format!("attitude/{vehicle}/vectors"),
         payload: serde_json::to_vec(&star_set(t, 2)).unwrap(),
@@ -246,7 +249,7 @@ fn a_vehicle_with_a_heavy_filter_and_a_backlog_does_not_hold_the_worker() {
     wait_until(
         "the light vehicle's estimate",
         Duration::from_secs(60),
-        || engine.state_of("light").is_ok(),
+        || query::state_of(&engine, "light").is_ok(),
     )
     .unwrap();
     let heavy = engine.vehicle("heavy").unwrap().info().processed;

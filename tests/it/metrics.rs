@@ -5,7 +5,8 @@
 use crate::common::{
     collecting_engine, free_port, open_zenoh, proto_dir, service_config, wait_until_async,
 };
-use attitude_service::service::engine::{Inbound, METRICS_ENCODING};
+use attitude_service::engine::Inbound;
+use attitude_service::query::METRICS_ENCODING;
 use attitude_service::service::session::{self, ServiceSession};
 use attitude_service::wire::{AttitudeMsg, GyroMsg, ObservationMsg, VectorsMsg};
 use std::collections::BTreeMap;
@@ -471,15 +472,15 @@ fn families(text: &str) -> BTreeMap<String, String> {
 /// proto/examples/metrics.txt, with the same types.
 #[test]
 fn the_metrics_families_are_those_of_the_contract() {
-    let (engine, threads, _) = collecting_engine(service_config("{}"));
+    let (node, threads, _) = collecting_engine(service_config("{}"));
     for (leaf, payload) in [("vectors", star_set(1.0)), ("gyro", b"{not json".to_vec())] {
-        engine.dispatch(Inbound {
+        node.engine.dispatch(Inbound {
             key: format!("attitude/sc1/{leaf}"),
             payload,
         });
     }
     threads.shutdown();
-    let text = engine.metrics_text(0);
+    let text = node.metrics_text(0);
     let written = families(&text);
     assert_eq!(
         value(

@@ -39,7 +39,7 @@ const VEHICLE_PATTERN: &str = "^[A-Za-z0-9_-]{1,64}$";
 /// even if `RejectCode` lost it).
 const NOT_INITIALIZED: &str = "not_initialized";
 /// A key of `P/@/health`'s `rejected` counters that is not an error code: samples dropped on arrival
-/// (`service::engine::Engine::health`).
+/// (`query::health`).
 const INGEST_OVERFLOW: &str = "ingest_overflow";
 
 type RoundTrip = fn(&Value) -> Result<(), String>;

@@ -1,4 +1,4 @@
-//! The ROS 2 edge in process (`service::ros2`, proto/ros2.md): an Imu message feeds exactly the path of
+//! The ROS 2 edge in process (`ros2`, proto/ros2.md): an Imu message feeds exactly the path of
 //! `P/V/imu` (the same estimates, bit for bit), the magnetometer is paired with its sample, the Imu out
 //! carries the sample's stamp, the bias-corrected rate and the specific force; the preset
 //! `config/ros2.json5` is `config/imu.json5` with the edge on. (The codec and the hashes are checked
@@ -6,10 +6,11 @@
 //! tests/python/test_ros2.py and the bad-input rows.)
 
 use crate::common::{collecting_engine, repo, service_config, wait_until};
+use attitude_service::engine::Inbound;
+use attitude_service::ros2::Ros2Config;
+use attitude_service::ros2::{Header, RosImu, RosMagneticField, RosType, Stamp};
 use attitude_service::service::config::{load, parse};
-use attitude_service::service::engine::Inbound;
-use attitude_service::service::ros2::Ros2Config;
-use attitude_service::wire::{EstimateMsg, Header, RosImu, RosMagneticField, RosType, Stamp};
+use attitude_service::wire::EstimateMsg;
 use std::time::Duration;
 
 const IMU_HASH: &str = "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b";
@@ -31,7 +32,8 @@ fn an_imu_message_takes_the_path_of_p_v_imu() {
     let config = service_config(
         r#"{"service": {"key_prefix": "test", "workers": 1, "filter": {"kind": "mekf"}, "ros2": {"enabled": true}}}"#,
     );
-    let (engine, threads, out) = collecting_engine(config);
+    let (node, threads, out) = collecting_engine(config);
+    let engine = node.engine.clone();
     let n = 300;
     for i in 0..n {
         let (t, gyr, acc, mag_t) = sample(i);
@@ -120,7 +122,7 @@ fn an_imu_message_takes_the_path_of_p_v_imu() {
     // The Imu out of the last estimate: the sample's own stamp and frame, the rate less the bias, the
     // specific force as it came, the attitude's covariance (body frame) and the rate's plus the bias's.
     let e = ros.last().unwrap();
-    let m = engine.ros2().unwrap().imu_of("ros1", e);
+    let m = node.ros2.as_ref().unwrap().imu_of("ros1", e);
     let (t, gyr, acc, _) = sample(n - 1);
     assert_eq!(m.header.stamp, Stamp::from_seconds(t));
     assert_eq!(m.header.frame_id, "imu_link");

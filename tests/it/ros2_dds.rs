@@ -4,8 +4,8 @@
 //! ROS 2 nodes on DDS: tests/python/test_ros2_dds.py.)
 
 use crate::common::repo;
+use attitude_service::ros2::Ros2Format;
 use attitude_service::service::config::{load, parse};
-use attitude_service::service::keys::Ros2Format;
 
 #[test]
 fn the_dds_preset_is_the_imu_preset_with_the_edge_on_dds() {

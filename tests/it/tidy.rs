@@ -180,7 +180,9 @@ fn the_binary_runs_no_python_and_bakes_in_no_source_path() {
 }
 
 /// Layers import downwards only: the numeric core uses no study, wire, service or tool code, and the
-/// service no study or tool code (a statistic both need lives in the core: `crate::stats`).
+/// service no study or tool code (a statistic both need lives in the core: `crate::stats`); the wire
+/// none of the service's folders; the engine neither zenoh nor the fleet, ROS 2, the queries or the
+/// wiring; the fleet and ROS 2 not each other (ARCHITECTURE.md, "The folders of `src/`").
 #[test]
 fn layers_import_downwards() {
     let root = repo();
@@ -197,9 +199,53 @@ fn layers_import_downwards() {
             ],
         ),
         (
-            &["src/service", "src/wire"],
+            &[
+                "src/service",
+                "src/wire",
+                "src/engine",
+                "src/fleet",
+                "src/ros2",
+                "src/query",
+            ],
             &["crate::study", "crate::tools", "crate::cli"],
         ),
+        // The contract imports none of the service's folders.
+        (
+            &["src/wire"],
+            &[
+                "crate::engine",
+                "crate::fleet",
+                "crate::ros2",
+                "crate::query",
+                "crate::service",
+            ],
+        ),
+        // The engine knows neither zenoh nor the features around it: they reach it through its hooks.
+        (
+            &["src/engine"],
+            &[
+                "zenoh::",
+                "crate::fleet",
+                "crate::ros2",
+                "crate::query",
+                "crate::service::ingest",
+                "crate::service::outlets",
+                "crate::service::session",
+                "crate::service::Node",
+                "crate::service::run",
+            ],
+        ),
+        // The features know the engine, not one another nor the wiring's `Node`.
+        (
+            &["src/fleet", "src/ros2"],
+            &[
+                "crate::query",
+                "crate::service::Node",
+                "crate::service::node",
+            ],
+        ),
+        (&["src/fleet"], &["crate::ros2"]),
+        (&["src/ros2"], &["crate::fleet"]),
         // The laboratory is above the service and the core: neither names it.
         (&["src", "crates/attitude-core/src"], &["attitude_lab"]),
     ];

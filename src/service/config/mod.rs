@@ -5,25 +5,20 @@
 pub mod extends;
 mod raw;
 
-use super::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
-use super::keys::{Keys, Leaf};
-use crate::ahrs::{
-    AccConfig, AhrsConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
-    SensorSheet,
-};
+use crate::ahrs::{AhrsConfig, SensorSheet};
 use crate::attitude::Grp;
 use crate::filters::{
     Fiducial, FilterConfig, FilterKind, FilterSpec, GapModel, GyroErrors, Kernel, QpfOptions,
     UsqueOptions,
 };
-use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
+use crate::fleet::{default_instance_name, parse_routes, routes_text, FleetConfig, FleetMode};
 use crate::sensors::GyroNoise;
 use crate::stats::chi_square_quantile;
 pub use crate::vehicle::policy::{InitMode, Policy, VehicleFilterConfig};
+use crate::wire::keys::{Keys, Leaf};
 use crate::wire::{validate_vehicle_id, InputLimits};
 use nalgebra::Vector3;
 use raw::*;
-use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 use thiserror::Error;
@@ -125,7 +120,7 @@ pub struct ServiceConfig {
     pub metrics: MetricsConfig,
     pub ingest: IngestConfig,
     /// The ROS 2 edge (off unless enabled).
-    pub ros2: crate::service::ros2::Ros2Config,
+    pub ros2: crate::ros2::Ros2Config,
 }
 
 impl ServiceConfig {
@@ -507,7 +502,7 @@ fn validate_service(raw: RawService) -> Result<ServiceConfig, String> {
     };
     let fleet = validate_fleet(&raw.key_prefix, raw.fleet)?;
     let ingest = validate_ingest(&raw.ingest, raw.limits.max_payload_bytes)?;
-    let ros2 = crate::service::ros2::config::validate(raw.ros2)?;
+    let ros2 = crate::ros2::config::validate(raw.ros2)?;
     if ros2.enabled {
         ros2_keys_apart(&raw.key_prefix, &ros2)?;
     }
@@ -574,8 +569,8 @@ fn validate_ingest(i: &RawIngest, max_payload: usize) -> Result<IngestConfig, St
 /// The ROS 2 edge's subscriptions must not reach the service's own inputs (nor the reverse): the
 /// dispatcher reads a key as a vehicle's input first, so a ROS message on an overlapping key would be
 /// refused as JSON (e.g. the bridge format with `namespace` equal to `key_prefix` and a topic `imu`).
-fn ros2_keys_apart(prefix: &str, ros2: &crate::service::ros2::Ros2Config) -> Result<(), String> {
-    use super::keys::Ros2Keys;
+fn ros2_keys_apart(prefix: &str, ros2: &crate::ros2::Ros2Config) -> Result<(), String> {
+    use crate::ros2::Ros2Keys;
     use zenoh::key_expr::KeyExpr;
     let keys = Keys::new(prefix);
     let ours = [

@@ -1,7 +1,17 @@
 //! What the configuration file says, as it says it (serde's view of config/default.json5): every
 //! section with its defaults. `super` validates it into the service's and the vehicles' types.
 
-use super::*;
+use super::{IngestConfig, MetricsConfig};
+use crate::ahrs::{
+    AccConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig, SensorSheet,
+};
+use crate::filters::{GapModel, QpfOptions};
+use crate::fleet::FleetConfig;
+use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
+use crate::sensors::GyroNoise;
+use crate::wire::InputLimits;
+use serde::Deserialize;
+use std::collections::BTreeMap;
 
 #[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -29,7 +39,7 @@ pub(super) struct RawService {
     pub(super) fleet: RawFleet,
     pub(super) metrics: RawMetrics,
     pub(super) ingest: RawIngest,
-    pub(super) ros2: crate::service::ros2::RawRos2,
+    pub(super) ros2: crate::ros2::RawRos2,
 }
 
 impl Default for RawService {

@@ -1,8 +1,9 @@
-//! The service's engine in process, without zenoh: configured from a configuration file's text, it
-//! publishes into a list.
+//! The service's engine in process, without zenoh (with its fleet member and ROS 2 edge, a
+//! `service::Node`): configured from a configuration file's text, it publishes into a list.
 
+use attitude_service::engine::{EngineThreads, Sink};
 use attitude_service::service::config::{parse, ServiceConfig};
-use attitude_service::service::engine::{Engine, EngineThreads, Sink};
+use attitude_service::service::Node;
 use std::sync::{Arc, Mutex};
 
 /// Everything an engine published, `(key, payload)` in order.
@@ -16,7 +17,7 @@ pub fn service_config(text: &str) -> ServiceConfig {
 }
 
 /// An engine whose publications are collected in [`Outputs`].
-pub fn collecting_engine(config: ServiceConfig) -> (Arc<Engine>, EngineThreads, Outputs) {
+pub fn collecting_engine(config: ServiceConfig) -> (Node, EngineThreads, Outputs) {
     let out: Outputs = Arc::default();
     let sink: Sink = {
         let out = out.clone();
@@ -24,6 +25,6 @@ pub fn collecting_engine(config: ServiceConfig) -> (Arc<Engine>, EngineThreads, 
             out.lock().unwrap().push((key.to_string(), payload))
         })
     };
-    let (engine, threads) = Engine::start(config, sink).expect("the engine starts");
-    (engine, threads, out)
+    let (node, threads) = Node::start(config, sink).expect("the engine starts");
+    (node, threads, out)
 }

@@ -7,7 +7,7 @@ use attitude_core::filters::FilterSpec;
 use attitude_service::cli::config::peer_config;
 use attitude_service::cli::runtime::init_logging;
 use attitude_service::service::config as service_config;
-use attitude_service::service::keys::Keys;
+use attitude_service::wire::keys::Keys;
 use clap::Args;
 use std::path::PathBuf;
 use tokio_util::sync::CancellationToken;
@@ -133,7 +133,7 @@ pub async fn loadgen(args: LoadgenArgs) -> Result<()> {
         covering: args.capped,
         routed: args.routed,
         spread: args.spread,
-        publishing: attitude_service::cli::fleet::publishing(!args.advanced, args.cache)?,
+        publishing: attitude_service::cli::simulate::publishing(!args.advanced, args.cache)?,
     };
     let keys = Keys::new(&args.prefix);
     let (report, _echo_session) = if args.echo {

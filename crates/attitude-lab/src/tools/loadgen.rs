@@ -12,9 +12,9 @@
 //! sequence number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a
 //! token each: what that costs the service is measured in BENCHMARKS.md.
 
-use attitude_service::service::keys::{Keys, Leaf};
+use attitude_service::fleet::sender::{RoutedSender, FLUSH_S};
 use attitude_service::tools::publish::{Inputs, Publishing};
-use attitude_service::tools::routed::{RoutedSender, FLUSH_S};
+use attitude_service::wire::keys::{Keys, Leaf};
 use attitude_service::wire::{GyroMsg, ImuMsg, ObservationMsg, VectorsMsg};
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
@@ -44,7 +44,7 @@ pub struct LoadOptions {
     /// counted, has the last samples answered too.
     pub covering: bool,
     /// Inputs on their routed keys, and batched for the routes' standby members
-    /// ([`attitude_service::tools::routed`]): how a fleet scales.
+    /// ([`attitude_service::fleet::sender`]): how a fleet scales.
     pub routed: bool,
     /// Each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as
     /// independent vehicles send, instead of every vehicle's at the start of each period (a burst).
@@ -224,9 +224,8 @@ pub async fn echo(session: &zenoh::Session, keys: &Keys) -> Result<Echo, zenoh::
             session
                 .declare_subscriber(key)
                 .callback(move |s: zenoh::sample::Sample| {
-                    if let Some(attitude_service::service::keys::Received::Vehicle {
-                        vehicle,
-                        ..
+                    if let Some(attitude_service::wire::keys::Received::Vehicle {
+                        vehicle, ..
                     }) = k.classify(s.key_expr().as_str())
                     {
                         let _ = zenoh::Wait::wait(

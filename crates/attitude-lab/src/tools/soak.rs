@@ -13,7 +13,7 @@ use crate::tools::loadgen::{
     count_rejections, drain, latency_us, probe, star_set, time_key, Pending,
 };
 use attitude_core::filters::FilterSpec;
-use attitude_service::service::keys::{Keys, Leaf};
+use attitude_service::wire::keys::{Keys, Leaf};
 use attitude_service::wire::GyroMsg;
 use serde::Serialize;
 use std::collections::HashMap;

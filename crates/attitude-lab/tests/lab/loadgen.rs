@@ -7,7 +7,7 @@ use crate::common::{service_config, Service};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn loadgen_against_the_service_and_the_echo_loses_nothing() {
     use attitude_lab::tools::loadgen::{echo, run, LoadOptions};
-    use attitude_service::service::keys::Keys;
+    use attitude_service::wire::keys::Keys;
     let h = Service::start(service_config(
         r#"{ service: { filter: { kind: "mekf" } } }"#,
     ))

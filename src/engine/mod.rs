@@ -1,51 +1,107 @@
-//! The service's machinery without the network: vehicle registry, counters, the dispatcher that
-//! parses and routes inputs in arrival order, and the worker pool that runs the filters.
+//! The engine: the vehicles without the network. A registry of vehicles, each with a bounded inbox;
+//! one dispatcher thread that decodes the inputs in arrival order and queues them on their vehicle's
+//! inbox; a worker pool that drains one vehicle at a time through its filter and publishes what it
+//! gives; a housekeeping thread (reorder-window ticks, periodic checkpoints).
 //!
-//! Data flow: a zenoh subscriber callback only `try_send`s the raw sample into the bounded ingest
-//! channel (a full channel is counted, never waited on) → one dispatcher thread decodes and validates
-//! it (pure functions of `wire`) and appends the measurements to the vehicle's bounded inbox → the
-//! vehicle is scheduled once on the worker pool → a worker drains its inbox through the vehicle's
-//! filter and hands every output to the [`Sink`]. A vehicle is processed by one worker at a time, in
-//! arrival order; a slow vehicle occupies one worker and never blocks the others.
+//! Data flow: a zenoh subscriber callback only hands the raw sample to the bounded ingest channel
+//! ([`Admission::offer`]) → the dispatcher decodes and validates it (pure functions of `wire`) and
+//! appends the measurements to the vehicle's bounded inbox → the vehicle is scheduled once on the
+//! worker pool → a worker drains its inbox through the vehicle's filter and hands every estimate to
+//! the vehicle's [`EstimateOutlet`], everything else to the [`Sink`]. A vehicle is processed by one
+//! worker at a time, in arrival order; a slow vehicle occupies one worker and never blocks the others.
 //!
-//! Files: this one (the types, start and restore, housekeeping, the registry and the workers),
-//! `dispatch.rs` (the dispatcher: decoding and queueing), `output.rs` (estimates out: serialised once, only when someone subscribes; the vehicle's
-//! row of `P/@/vehicles`), `fleet.rs` (routes: ownership, standby data, takeover, the owner's batches
-//! of estimates), `queries.rs` (pure reads for the queryables).
+//! The engine knows neither zenoh nor the features around it: a fleet and the ROS 2 edge reach it only
+//! through its [`Hooks`] (who owns a vehicle, what a standby keeps, what happens to an estimate),
+//! which the wiring (`service::Node`) plugs in, and through the operations it offers them
+//! ([`Engine::accept`], [`Engine::queue`], [`Engine::adopt`], [`Engine::release`]) and the tasks it
+//! runs on its dispatcher thread in order with the inputs ([`EngineThreads::tasks`]).
+//!
+//! Files: this one (the engine, its hooks, start and restore, the workers, housekeeping,
+//! checkpoints, the registry, estimates out), `dispatch.rs` (the dispatcher: classifying, decoding,
+//! queueing; telling what was refused or missed), `vehicle.rs` (what the engine keeps: each vehicle's
+//! record, the counters), `admission.rs` (the subscribers' side of the ingest channel).
 
+mod admission;
 mod dispatch;
-mod fleet;
-mod ingest;
-mod metrics;
-mod output;
-mod queries;
-mod ros2;
+mod vehicle;
 
-pub use fleet::RoutePlan;
-pub use ingest::{Admission, Held, Ingest};
-
-/// A route's estimates waiting for the next batch to its standby members: by vehicle, whether it is
-/// new since the last batch and the serialised estimate.
-type Outgoing = HashMap<String, (bool, Vec<u8>)>;
-pub use metrics::METRICS_ENCODING;
-pub use output::{EstimateOutlet, Outlets, Sink};
-
-use super::config::ServiceConfig;
-use super::fleet::{Assignment, FleetMode};
-use super::keys::{parse_route, route_of, Keys, Leaf, Received, ROUTES};
-use super::persist::{self, SavedCounters};
-use crate::sensors::Measurement;
-use crate::vehicle::{Event, ResetRequest, Stream, TakeoverSeed, VehicleState};
-use crate::wire::batch::{self, BatchWriter};
-use crate::wire::{
-    decode_batch_into, validate_vehicle_id, AttitudeMsg, CheckpointHealthMsg, CovarianceMsg,
-    EstimateMsg, FleetHealthMsg, GyroMsg, HealthMsg, ImuMsg, IngestHealthMsg, RejectCode,
-    Rejection, ResetMsg, ResetReplyMsg, VectorsMsg, VehicleInfoMsg,
+pub use admission::{Admission, Held, Ingest};
+pub use vehicle::{
+    sink_outlets, Counters, EstimateOutlet, Outlets, Sink, StepTimes, Vehicle, VehicleTotals, KINDS,
 };
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet, VecDeque};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+
+use crate::sensors::Measurement;
+use crate::service::config::ServiceConfig;
+use crate::service::persist::{self, SavedCounters};
+use crate::vehicle::{Event, ResetRequest, Stream, VehicleState};
+use crate::wire::keys::{Keys, Leaf};
+use crate::wire::{
+    validate_vehicle_id, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
+};
+use std::collections::HashMap;
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
+
+/// What the engine asks of the features around it, plugged in by the wiring. Each method's default is
+/// a lone instance's: it owns every vehicle, keeps nothing for another, and an estimate goes to its
+/// outlet only. Called on the dispatcher thread unless said otherwise.
+pub trait Hooks: Send + Sync {
+    /// Who owns a vehicle: whether this instance processes and answers for `vehicle` (any string: a
+    /// wildcard chunk is owned too, so that exactly one member refuses a wildcard put). Any thread.
+    fn owns(&self, _vehicle: &str) -> bool {
+        true
+    }
+
+    /// What a standby keeps: an input of a vehicle this instance does not own.
+    fn not_owned(&self, _engine: &Engine, _vehicle: &str, _inbound: Inbound) {}
+
+    /// Whether an input of an owned vehicle was used already (by a takeover), so is not used again.
+    fn used_before(&self, _engine: &Engine, _vehicle: &str, _leaf: Leaf, _payload: &[u8]) -> bool {
+        false
+    }
+
+    /// An input on a key that is not a vehicle's `P/V/<leaf>` (a standby batch, a ROS 2 topic):
+    /// decoded and queued through [`Engine::accept`] or [`Engine::queue`], the vehicles to schedule
+    /// pushed on `touched`. `decoded`: the dispatcher's buffer.
+    fn other_input(
+        &self,
+        _engine: &Engine,
+        _inbound: Inbound,
+        _decoded: &mut Vec<Measurement>,
+        _touched: &mut Vec<Arc<Vehicle>>,
+    ) {
+    }
+
+    /// The vehicle of such a key (to count and tell what was refused or missed on it).
+    fn vehicle_of<'a>(&self, _key: &'a str) -> Option<&'a str> {
+        None
+    }
+
+    /// Whether `vehicle`'s estimates are wanted serialised even when no subscriber listens (a fleet
+    /// owner's standby members get every one). A worker thread.
+    fn wants_bytes(&self, _vehicle: &str) -> bool {
+        false
+    }
+
+    /// What happens to an estimate besides its outlet: `bytes`, its JSON when it was serialised. A
+    /// worker thread, before the estimate is put.
+    fn on_estimate(&self, _vehicle: &str, _estimate: &EstimateMsg, _bytes: Option<&[u8]>) {}
+
+    /// The housekeeping thread's tick (every 10 ms), after the reorder windows' ticks are queued.
+    fn housekeeping(&self, _engine: &Engine) {}
+
+    /// At shutdown, once every inbox is drained, before the last checkpoints.
+    fn on_shutdown(&self, _engine: &Engine) {}
+}
+
+/// The hooks of an engine alone: no fleet, no ROS 2 edge.
+pub struct Alone;
+
+impl Hooks for Alone {}
+
+/// Work for the dispatcher thread, run in order with the inputs (a fleet's change of members).
+pub type Task = Box<dyn FnOnce(&Engine) + Send>;
 
 /// A raw input as received.
 #[derive(Clone)]
@@ -67,157 +123,6 @@ enum Input {
     Tick(f64),
 }
 
-/// Service-wide counters (atomics: read by queries without locks).
-#[derive(Default)]
-pub struct Counters {
-    pub received: AtomicU64,
-    pub processed: AtomicU64,
-    pub estimates: AtomicU64,
-    pub queries: AtomicU64,
-    /// Inputs refused on arrival for want of room (each told on `P/V/rejected` as `queue_full`).
-    pub ingest_overflow: AtomicU64,
-    /// Puts of the vehicles' inputs that zenoh reported lost (`samples_missed`).
-    pub missed: AtomicU64,
-    rejected: [AtomicU64; RejectCode::ALL.len()],
-    /// Checkpoints: vehicles restored and files skipped at start; files written and failed writes.
-    pub restored: AtomicU64,
-    pub skipped: AtomicU64,
-    pub written: AtomicU64,
-    pub write_failed: AtomicU64,
-    /// Filter step times by filter kind (`P/@/metrics`).
-    steps: metrics::StepTimes,
-}
-
-impl Counters {
-    pub fn reject(&self, code: RejectCode) {
-        let i = RejectCode::ALL.iter().position(|c| *c == code).unwrap_or(0);
-        self.rejected[i].fetch_add(1, Ordering::Relaxed);
-    }
-
-    pub fn rejected_by_code(&self) -> BTreeMap<String, u64> {
-        RejectCode::ALL
-            .iter()
-            .zip(&self.rejected)
-            .map(|(c, n)| (c.as_str().to_string(), n.load(Ordering::Relaxed)))
-            .filter(|(_, n)| *n > 0)
-            .collect()
-    }
-}
-
-/// One vehicle: its inbox, its filter state, and what queries read without waiting for the filter.
-pub struct Vehicle {
-    pub id: String,
-    inbox: Mutex<VecDeque<Input>>,
-    scheduled: AtomicBool,
-    state: Mutex<VehicleState>,
-    /// The last published estimate (queries read this, never the filter).
-    snapshot: RwLock<Option<Arc<EstimateMsg>>>,
-    info: output::Info,
-    /// Where its estimates go (made at the first one).
-    outlet: output::Outlet,
-    received: AtomicU64,
-    processed: AtomicU64,
-    rejected: AtomicU64,
-    /// This vehicle's refused inputs by code, reported in its estimates' diagnostics.
-    rejected_by_code: Mutex<BTreeMap<String, u64>>,
-    /// Samples in the reorder window, and whether a tick is already queued.
-    held: AtomicUsize,
-    tick_queued: AtomicBool,
-    /// Gate, re-initialisation and rollback totals (for `P/@/health`).
-    gated: AtomicU64,
-    reinits: AtomicU64,
-    rollbacks: AtomicU64,
-    /// Late samples fused and the bytes of the history that lets it (for `P/@/health`).
-    late_fused: AtomicU64,
-    history_bytes: AtomicU64,
-    /// Puts of its inputs zenoh reported lost (since it was created or restored).
-    missed: AtomicU64,
-    /// Gaps in its gyro or raw-IMU samples, and the µs the raw-IMU ones hid (`Totals`).
-    gaps: AtomicU64,
-    blind_us: AtomicU64,
-    /// Restored from a checkpoint: the newest sample time of each stream it held (zenoh may deliver
-    /// those samples again from the publishers' caches; `Engine::skip_redelivered`).
-    restored_newest: Option<[Option<f64>; crate::vehicle::STREAMS]>,
-    /// Changed since its last checkpoint.
-    dirty: AtomicBool,
-}
-
-impl Vehicle {
-    fn new(id: &str, state: VehicleState, counters: SavedCounters) -> Self {
-        let info = output::Info::of(&state);
-        let snapshot = state.estimate().map(|p| Arc::new(EstimateMsg::from(&p)));
-        let v = Vehicle {
-            id: id.to_string(),
-            inbox: Mutex::new(VecDeque::new()),
-            scheduled: AtomicBool::new(false),
-            snapshot: RwLock::new(snapshot),
-            info,
-            outlet: output::Outlet::default(),
-            received: AtomicU64::new(counters.received),
-            processed: AtomicU64::new(counters.processed),
-            rejected: AtomicU64::new(counters.rejected),
-            rejected_by_code: Mutex::new(counters.rejected_by_code),
-            held: AtomicUsize::new(0),
-            tick_queued: AtomicBool::new(false),
-            gated: AtomicU64::new(0),
-            reinits: AtomicU64::new(0),
-            rollbacks: AtomicU64::new(0),
-            late_fused: AtomicU64::new(0),
-            history_bytes: AtomicU64::new(0),
-            missed: AtomicU64::new(0),
-            gaps: AtomicU64::new(0),
-            blind_us: AtomicU64::new(0),
-            restored_newest: None,
-            dirty: AtomicBool::new(false),
-            state: Mutex::new(state),
-        };
-        {
-            let state = v.state.lock().unwrap_or_else(|e| e.into_inner());
-            v.refresh_totals(&state);
-        }
-        v
-    }
-
-    fn refresh_totals(&self, state: &VehicleState) {
-        let t = state.totals();
-        self.held.store(state.held(), Ordering::Relaxed);
-        self.gated.store(t.gated, Ordering::Relaxed);
-        self.reinits.store(t.reinits, Ordering::Relaxed);
-        self.rollbacks.store(t.rollbacks, Ordering::Relaxed);
-        self.late_fused.store(t.late_fused, Ordering::Relaxed);
-        self.history_bytes
-            .store(t.history_bytes as u64, Ordering::Relaxed);
-        self.gaps.store(t.gaps, Ordering::Relaxed);
-        self.blind_us
-            .store((t.blind_s * 1e6) as u64, Ordering::Relaxed);
-    }
-
-    fn counters(&self) -> SavedCounters {
-        SavedCounters {
-            received: self.received.load(Ordering::Relaxed),
-            processed: self.processed.load(Ordering::Relaxed),
-            rejected: self.rejected.load(Ordering::Relaxed),
-            rejected_by_code: self
-                .rejected_by_code
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .clone(),
-        }
-    }
-
-    pub fn snapshot(&self) -> Option<Arc<EstimateMsg>> {
-        self.snapshot.read().map(|s| s.clone()).unwrap_or(None)
-    }
-
-    pub fn info(&self) -> VehicleInfoMsg {
-        let mut info = self.info.message(&self.id);
-        info.received = self.received.load(Ordering::Relaxed);
-        info.processed = self.processed.load(Ordering::Relaxed);
-        info.rejected = self.rejected.load(Ordering::Relaxed);
-        info
-    }
-}
-
 fn refresh_info(v: &Vehicle, state: &VehicleState) {
     v.info.refresh(state);
 }
@@ -228,7 +133,7 @@ const TURN: usize = 256;
 /// steps in milliseconds) and a backlog must not hold a worker for hundreds of its steps.
 const TURN_S: f64 = 0.005;
 
-/// The engine shared by the dispatcher, the workers and the query handlers.
+/// The engine shared by the dispatcher, the workers, the housekeeping thread and the queries.
 pub struct Engine {
     pub config: Arc<ServiceConfig>,
     pub keys: Keys,
@@ -241,45 +146,11 @@ pub struct Engine {
     outlets: Outlets,
     /// Serialises checkpoint writers (the housekeeping thread and the shutdown).
     checkpointing: Mutex<()>,
-    fleet: FleetState,
-    /// `P/<shard>/x` when statically sharded (`fleet.vehicles` other than `*`).
-    shard: Option<zenoh::key_expr::OwnedKeyExpr>,
-    /// The ROS 2 edge, when `service.ros2` enables it.
-    ros2: Option<Arc<super::ros2::Edge>>,
+    /// The fleet's and the ROS 2 edge's side, as the wiring plugged it in.
+    hooks: Arc<dyn Hooks>,
     /// The subscribers' side of the ingest channel, and the channel (its depth, for `P/@/health`).
     pub admission: Admission,
     ingest_depth: crossbeam_channel::Receiver<Option<Ingest>>,
-}
-
-/// What this instance knows of the rest of its fleet (dynamic mode).
-#[derive(Default)]
-struct FleetState {
-    /// The live members (this instance among them); `None` until first known: nothing is owned
-    /// before, so a starting instance never processes what another member owns.
-    members: RwLock<Option<BTreeSet<String>>>,
-    /// The routes' owners and holders for `members`.
-    assignment: RwLock<Option<Arc<Assignment>>>,
-    /// Before joining: the assignment once this instance has joined. It holds (keeps the standby
-    /// data of) the routes it will hold, and owns nothing yet.
-    prepared: RwLock<Option<Arc<Assignment>>>,
-    /// Estimates read before a takeover (at start, or the last of a vehicle released), parsed.
-    cache: Mutex<HashMap<String, Arc<EstimateMsg>>>,
-    /// Inputs received one by one for vehicles of routes held but not owned (plain keys, which
-    /// every member receives, or a routed input during a change of owner), with their arrival
-    /// (engine time, s), for `fleet.standby_s`.
-    standby: Mutex<HashMap<String, VecDeque<(f64, Inbound)>>>,
-    /// Per route: its standby data (the senders' batches of its inputs, its owner's last estimates)
-    /// while held, and after a takeover the inputs already used.
-    routes: Mutex<Vec<fleet::RouteStandby>>,
-    /// Per route owned: each vehicle's last estimate, and whether it was published since the last
-    /// batch to the route's standby members.
-    outgoing: Mutex<Vec<Outgoing>>,
-    /// The routes to subscribe to, for the service (`service::run`).
-    plan: Option<tokio::sync::watch::Sender<RoutePlan>>,
-    takeovers: AtomicU64,
-    released: AtomicU64,
-    /// Standby batches that could not be read.
-    malformed: AtomicU64,
 }
 
 /// The running threads of an engine.
@@ -287,9 +158,8 @@ pub struct EngineThreads {
     /// Where subscriber callbacks hand raw samples (through [`Admission::offer`]); `None` stops the
     /// dispatcher.
     pub ingest: crossbeam_channel::Sender<Option<Ingest>>,
-    /// The live members of the fleet, whenever they change (dynamic mode); handled by the dispatcher
-    /// in order with the inputs.
-    pub members: crossbeam_channel::Sender<BTreeSet<String>>,
+    /// Work run on the dispatcher thread in order with the inputs (a fleet's change of members).
+    pub tasks: crossbeam_channel::Sender<Task>,
     dispatcher: std::thread::JoinHandle<()>,
     workers: Vec<std::thread::JoinHandle<()>>,
     housekeeping: std::thread::JoinHandle<()>,
@@ -318,8 +188,8 @@ impl EngineThreads {
                 self.engine.work(&v, &mut Vec::new());
             }
         }
-        // The last estimates reach the standby members before this instance leaves.
-        self.engine.flush_estimates();
+        // (A fleet's last estimates reach the standby members before this instance leaves.)
+        self.engine.hooks.on_shutdown(&self.engine);
         self.engine.checkpoint_all();
     }
 }
@@ -331,52 +201,36 @@ const TICK_S: f64 = 0.01;
 pub const INGEST_CAPACITY: usize = 1 << 16;
 
 impl Engine {
-    /// [`Engine::start_with`] where every estimate is wanted and goes to `sink` too.
-    pub fn start(
+    /// An engine alone (no fleet, no ROS 2 edge) where every estimate is wanted and goes to `sink`
+    /// too.
+    pub fn start_alone(
         config: ServiceConfig,
         sink: Sink,
     ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
-        let outlets = output::sink_outlets(&sink);
-        Engine::start_with(config, sink, outlets)
+        let outlets = sink_outlets(&sink);
+        Engine::start(config, sink, outlets, Arc::new(Alone))
     }
 
     /// Restores the vehicles checkpointed in the state directory (if one is configured; it is
     /// created when missing), then starts the dispatcher, `config.workers` worker threads and the
     /// housekeeping thread (reorder-window ticks, periodic checkpoints). Estimates go to each
-    /// vehicle's outlet of `outlets`, everything else to `sink`. Only an unusable state directory is
-    /// an error; a bad checkpoint file is reported and skipped.
-    pub fn start_with(
+    /// vehicle's outlet of `outlets`, everything else to `sink`; `hooks` are the features' side.
+    /// Only an unusable state directory is an error; a bad checkpoint file is reported and skipped.
+    pub fn start(
         config: ServiceConfig,
         sink: Sink,
         outlets: Outlets,
+        hooks: Arc<dyn Hooks>,
     ) -> Result<(Arc<Engine>, EngineThreads), persist::CheckpointError> {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
         let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Ingest>>(INGEST_CAPACITY);
-        let (members_tx, members_rx) = crossbeam_channel::unbounded::<BTreeSet<String>>();
+        let (tasks_tx, tasks_rx) = crossbeam_channel::unbounded::<Task>();
         let workers = config.workers.max(1);
         let keys = Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles);
-        let shard = (config.fleet.vehicles != "*")
-            .then(|| zenoh::key_expr::OwnedKeyExpr::try_from(keys.all(Leaf::Gyro)).ok())
-            .flatten();
-        let ros2 = config.ros2.enabled.then(|| {
-            Arc::new(super::ros2::Edge::new(
-                config.ros2.clone(),
-                config.limits.max_vehicles,
-            ))
-        });
-        let fleet = FleetState {
-            routes: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
-            outgoing: Mutex::new((0..ROUTES).map(|_| Default::default()).collect()),
-            plan: (config.fleet.mode == FleetMode::Dynamic)
-                .then(|| tokio::sync::watch::Sender::new(RoutePlan::default())),
-            ..Default::default()
-        };
         let admission = Admission::new(&config.ingest);
         let engine = Arc::new(Engine {
             keys,
-            shard,
-            ros2,
-            fleet,
+            hooks,
             config: Arc::new(config),
             counters: Counters::default(),
             started: Instant::now(),
@@ -393,7 +247,7 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || engine.dispatcher(ingest_rx, members_rx))
+                .spawn(move || engine.dispatcher(ingest_rx, tasks_rx))
                 .expect("spawn the dispatcher thread")
         };
         let workers = (0..workers)
@@ -424,7 +278,7 @@ impl Engine {
             engine.clone(),
             EngineThreads {
                 ingest: ingest_tx,
-                members: members_tx,
+                tasks: tasks_tx,
                 dispatcher,
                 workers,
                 housekeeping,
@@ -434,7 +288,8 @@ impl Engine {
         ))
     }
 
-    fn now_s(&self) -> f64 {
+    /// The engine time, s since it started: what inputs, ticks and standby data are stamped with.
+    pub fn now_s(&self) -> f64 {
         self.started.elapsed().as_secs_f64()
     }
 
@@ -485,9 +340,6 @@ impl Engine {
     fn housekeeping(&self, stop: crossbeam_channel::Receiver<()>) {
         let interval = self.config.persistence.checkpoint_interval_s;
         let mut next_checkpoint = self.now_s() + interval;
-        let mut next_trim = self.now_s() + 1.0;
-        let flush = self.config.fleet.flush_s;
-        let mut next_flush = self.now_s() + flush;
         let tick = std::time::Duration::from_secs_f64(TICK_S);
         loop {
             match stop.recv_timeout(tick) {
@@ -514,14 +366,7 @@ impl Engine {
                     self.schedule(&v);
                 }
             }
-            if self.now_s() >= next_flush {
-                self.flush_estimates();
-                next_flush = self.now_s() + flush;
-            }
-            if self.now_s() >= next_trim {
-                self.trim_standby();
-                next_trim = self.now_s() + 1.0;
-            }
+            self.hooks.housekeeping(self);
             if self.now_s() >= next_checkpoint {
                 self.checkpoint_all();
                 next_checkpoint = self.now_s() + interval;
@@ -760,6 +605,138 @@ impl Engine {
                     self.publish_estimate(v, EstimateMsg::from(p));
                 }
             }
+        }
+    }
+}
+
+/// Estimates out, the features' operations, and the reads the queries make.
+impl Engine {
+    /// Runs one input through its vehicle (`f`, on a worker), timed for `attitude_step_seconds`.
+    fn timed<T>(
+        &self,
+        state: &mut VehicleState,
+        events: &mut Vec<Event>,
+        f: impl FnOnce(&mut VehicleState, &mut Vec<Event>) -> T,
+    ) -> T {
+        let started = Instant::now();
+        let out = f(state, events);
+        let kind = state.spec().kind;
+        self.counters.steps.observe(kind, started.elapsed(), events);
+        out
+    }
+
+    /// Keeps `e` (with the vehicle's rejection counts) as the snapshot the queries answer and, when
+    /// anyone subscribes to the vehicle's estimates (or the hooks want its bytes), serialises it once
+    /// and puts it.
+    fn publish_estimate(&self, v: &Vehicle, mut e: EstimateMsg) {
+        {
+            let rejected = v.rejected_by_code.lock().unwrap_or_else(|e| e.into_inner());
+            if !rejected.is_empty() {
+                e.diagnostics.rejected = rejected.clone();
+            }
+        }
+        e.diagnostics.missed = v.missed.load(Ordering::Relaxed);
+        let out = &v.outlet;
+        let outlet = out
+            .outlet
+            .get_or_init(|| (self.outlets)(&self.keys.vehicle(&v.id, Leaf::Estimate)));
+        // (In a fleet the route's standby members get every estimate, in the owner's next batch.)
+        let wanted = outlet.wanted();
+        let payload = if wanted || self.hooks.wants_bytes(&v.id) {
+            let mut buf = Vec::with_capacity(out.last_len.load(Ordering::Relaxed) + 64);
+            if let Err(err) = serde_json::to_writer(&mut buf, &e) {
+                tracing::error!(vehicle = %v.id, %err, "cannot serialise an estimate");
+                return;
+            }
+            out.last_len.store(buf.len(), Ordering::Relaxed);
+            Some(buf)
+        } else {
+            None
+        };
+        self.hooks.on_estimate(&v.id, &e, payload.as_deref());
+        *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(e));
+        self.counters.estimates.fetch_add(1, Ordering::Relaxed);
+        if let Some(payload) = payload {
+            if wanted {
+                outlet.put(payload);
+            }
+        }
+    }
+
+    /// Whether this instance processes and answers for `vehicle` (its hooks say; a lone engine owns
+    /// every vehicle).
+    pub fn owns(&self, vehicle: &str) -> bool {
+        self.hooks.owns(vehicle)
+    }
+
+    /// How many vehicles the registry holds.
+    pub fn vehicle_count(&self) -> usize {
+        self.vehicles.read().map(|m| m.len()).unwrap_or(0)
+    }
+
+    /// Raw samples waiting in the ingest channel.
+    pub fn ingest_depth(&self) -> usize {
+        self.ingest_depth.len()
+    }
+
+    /// Vehicles scheduled and waiting for a worker.
+    pub fn work_queue_depth(&self) -> usize {
+        self.work_tx.len()
+    }
+
+    /// A vehicle leaves this instance (a fleet hands it to another member): it leaves the registry
+    /// (what its inbox still holds is processed and published by the worker that has it) and its
+    /// checkpoint is removed (a restart must not resurrect it here). Returns its last estimate.
+    pub fn release(&self, id: &str) -> Option<Arc<EstimateMsg>> {
+        let v = self
+            .vehicles
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id)?;
+        if let Some(dir) = &self.config.persistence.state_dir {
+            let _ = std::fs::remove_file(persist::path_of(dir, id));
+        }
+        v.snapshot()
+    }
+
+    /// A vehicle comes to this instance with a state of its own (a fleet's takeover): it joins the
+    /// registry, queries answer `snapshot` until its first estimate here, and `replay` is queued on
+    /// its inbox (stamped now) and the vehicle scheduled. `false` when `limits.max_vehicles` is
+    /// reached (nothing changes).
+    pub fn adopt(
+        &self,
+        id: &str,
+        state: VehicleState,
+        snapshot: Option<Arc<EstimateMsg>>,
+        replay: Vec<Measurement>,
+    ) -> bool {
+        let v = {
+            let mut map = self.vehicles.write().unwrap_or_else(|e| e.into_inner());
+            if map.len() >= self.config.limits.max_vehicles {
+                return false;
+            }
+            let v = Arc::new(Vehicle::new(id, state, SavedCounters::default()));
+            map.insert(id.to_string(), v.clone());
+            v
+        };
+        if snapshot.is_some() {
+            *v.snapshot.write().unwrap_or_else(|e| e.into_inner()) = snapshot;
+        }
+        let at = self.now_s();
+        v.received.fetch_add(replay.len() as u64, Ordering::Relaxed);
+        v.dirty.store(true, Ordering::Release);
+        v.inbox
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .extend(replay.into_iter().map(|m| Input::Measurement(m, at)));
+        self.schedule(&v);
+        true
+    }
+
+    /// Hands the vehicles an input touched to the worker pool.
+    pub fn schedule_all(&self, touched: &mut Vec<Arc<Vehicle>>) {
+        for v in touched.drain(..) {
+            self.schedule(&v);
         }
     }
 }

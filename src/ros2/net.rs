@@ -7,11 +7,11 @@
 //! 3411fdec149fe0c932f24d4d79ef908eb81d7482, attachment_helpers.cpp at 534747dc, rmw_publisher_data.cpp at
 //! 3e19ec73, qos.cpp at 7efeee2b); `proto/ros2.md` says what each chunk and byte is.
 
+use super::keys::{Ros2Entity, Ros2Format};
+use super::msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, RosType, Stamp};
 use super::{Edge, Ros2Outlet};
-use crate::service::engine::Engine;
-use crate::service::keys::{Ros2Entity, Ros2Format};
+use crate::engine::Engine;
 use crate::service::ServiceError;
-use crate::wire::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, RosType, Stamp};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -206,7 +206,11 @@ pub async fn start(
             session
                 .declare_queryable(keys.topic_all(reset, "", ""))
                 .callback(move |q| {
-                    handle.spawn(super::reset::answer(engine.clone(), edge.clone(), q));
+                    handle.spawn(super::reset_service::answer(
+                        engine.clone(),
+                        edge.clone(),
+                        q,
+                    ));
                 })
                 .await
                 .map_err(zerr)?,
@@ -359,7 +363,7 @@ async fn graph(
                     tokens.extend(declare(token).await);
                     if let Some(reset) = &c.reset_service {
                         let key = keys.topic(&vehicle, reset, "", "");
-                        tokens.extend(declare(super::reset::server_announcement(&bridge, &key)).await);
+                        tokens.extend(declare(super::reset_service::server_announcement(&bridge, &key)).await);
                     }
                     continue;
                 }

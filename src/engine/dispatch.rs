@@ -1,9 +1,19 @@
 //! The dispatcher thread, the wire edge: inputs in arrival order, classified by key (a vehicle's input,
-//! plain or routed, a standby batch, or the ROS 2 edge's), checked for fleet ownership, decoded straight into
-//! measurements and queued on their vehicle's inbox; the vehicles go to the worker pool once the inputs
-//! already waiting are queued too.
+//! plain or routed, or another key the hooks take: a standby batch, the ROS 2 edge's), checked for
+//! ownership, decoded straight into measurements and queued on their vehicle's inbox; the vehicles go
+//! to the worker pool once the inputs already waiting are queued too. Between inputs it runs the
+//! tasks it is given (a fleet's change of members) and tells what the subscribers could not hand
+//! over or zenoh reported lost.
 
-use super::*;
+use super::admission::NoRoom;
+use super::{Engine, Inbound, Ingest, Input, Task, Vehicle};
+use crate::sensors::Measurement;
+use crate::wire::keys::{parse_route, route_of, Leaf, Received};
+use crate::wire::{
+    decode_batch_into, validate_vehicle_id, GyroMsg, ImuMsg, RejectCode, Rejection, VectorsMsg,
+};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
 
 /// Inputs already waiting that the dispatcher queues before handing their vehicles to the workers.
 const DISPATCH_BATCH: usize = 64;
@@ -11,13 +21,13 @@ const DISPATCH_BATCH: usize = 64;
 const TELL_S: f64 = 0.01;
 
 impl Engine {
-    /// The dispatcher thread: the inputs in arrival order, and the fleet's membership changes between
-    /// them, until the ingest channel says stop. Between them it tells what the subscribers could not
-    /// hand over (`Engine::tell_untold`), at least every [`TELL_S`].
+    /// The dispatcher thread: the inputs in arrival order, and the tasks it is given between them,
+    /// until the ingest channel says stop. Between them it tells what the subscribers could not hand
+    /// over (`Engine::tell_untold`), at least every [`TELL_S`].
     pub(super) fn dispatcher(
         &self,
         ingest: crossbeam_channel::Receiver<Option<Ingest>>,
-        members: crossbeam_channel::Receiver<BTreeSet<String>>,
+        tasks: crossbeam_channel::Receiver<Task>,
     ) {
         let (mut decoded, mut touched) = (Vec::new(), Vec::new());
         let tell = std::time::Duration::from_secs_f64(TELL_S);
@@ -48,9 +58,9 @@ impl Engine {
                         return;
                     }
                 }
-                recv(members) -> m => {
-                    if let Ok(members) = m {
-                        self.set_members(members);
+                recv(tasks) -> t => {
+                    if let Ok(task) = t {
+                        task(self);
                     }
                 }
                 default(tell) => {}
@@ -114,19 +124,9 @@ impl Engine {
                 leaf,
                 route,
             }) => (vehicle, leaf, route),
-            Some(Received::StandbyInputs(r)) => {
-                let key = inbound.key.clone();
-                self.standby_inputs(r, &key, inbound.payload, decoded, touched);
-                return;
-            }
-            Some(Received::StandbyEstimates(r, group)) => {
-                self.standby_estimates(r, group, &inbound.key, &inbound.payload);
-                return;
-            }
-            None => {
-                if let Some(v) = self.dispatch_ros2(inbound, decoded) {
-                    touched.push(v);
-                }
+            // (A standby batch, a ROS 2 topic: the hooks decode and queue it.)
+            _ => {
+                self.hooks.other_input(self, inbound, decoded, touched);
                 return;
             }
         };
@@ -151,12 +151,15 @@ impl Engine {
                 return;
             }
         }
-        if !self.owns(vehicle) {
+        if !self.hooks.owns(vehicle) {
             let vehicle = vehicle.to_string();
-            self.keep_standby(&vehicle, inbound);
+            self.hooks.not_owned(self, &vehicle, inbound);
             return;
         }
-        if self.used_before(vehicle, leaf, &inbound.payload) {
+        if self
+            .hooks
+            .used_before(self, vehicle, leaf, &inbound.payload)
+        {
             return;
         }
         let accepted = if sequenced {
@@ -192,7 +195,7 @@ impl Engine {
 
     /// Decodes an input of an owned vehicle and queues its measurements on its inbox, or refuses it
     /// (published on `P/V/rejected`, with `key`); the vehicle to schedule.
-    pub(super) fn accept(
+    pub fn accept(
         &self,
         vehicle: &str,
         leaf: Leaf,
@@ -208,7 +211,7 @@ impl Engine {
     /// Queues the measurements decoded from one input on its vehicle's inbox (creating the vehicle),
     /// or refuses the input: the rejection of its decoding, an invalid vehicle id, too many vehicles,
     /// a full inbox. Returns the vehicle to schedule.
-    pub(super) fn queue(
+    pub fn queue(
         &self,
         vehicle: &str,
         key: &str,
@@ -260,7 +263,7 @@ impl Engine {
 
     /// Decodes a gyro, vectors or IMU payload straight into measurements appended to `out` (nothing
     /// on a fault; `None` for other leaves), and how many.
-    pub(super) fn decode(
+    pub fn decode(
         &self,
         leaf: Leaf,
         payload: &[u8],
@@ -288,5 +291,105 @@ impl Engine {
             ),
             _ => return None,
         })
+    }
+}
+
+/// What could not be handed over or was lost, told on the dispatcher thread.
+impl Engine {
+    /// The dispatcher's side: tells what the subscribers could not hand over (dispatcher thread,
+    /// between inputs).
+    pub(super) fn tell_untold(&self) {
+        let Some(untold) = self.admission.take_untold() else {
+            return;
+        };
+        for (key, u) in untold {
+            if u.missed > 0 {
+                self.missed(&key, u.missed, &u.source);
+            }
+            if u.refused > 0 {
+                let why = match u.why {
+                    Some(NoRoom::Share) => format!(
+                        "its vehicle's inputs waiting to be decoded already held {} bytes (service.ingest.pending_bytes_per_vehicle)",
+                        self.config.ingest.pending_bytes_per_vehicle
+                    ),
+                    _ => format!(
+                        "the service's ingest was full ({} bytes or {} inputs waiting to be decoded)",
+                        self.config.ingest.pending_bytes, self.admission.capacity()
+                    ),
+                };
+                let r = Rejection::new(
+                    RejectCode::QueueFull,
+                    format!(
+                        "{} input(s) on {key} refused on arrival: {why}; the sender is faster than this service",
+                        u.refused
+                    ),
+                );
+                self.tell(&key, &r);
+            }
+        }
+    }
+
+    /// The vehicle of an input key (plain, routed, or the ROS 2 edge's).
+    fn vehicle_of_key<'a>(&self, key: &'a str) -> Option<&'a str> {
+        match self.keys.classify(key) {
+            Some(Received::Vehicle { vehicle, .. }) => Some(vehicle),
+            Some(_) => None,
+            None => self.hooks.vehicle_of(key),
+        }
+    }
+
+    /// Publishes `r` about the input key `key` on its vehicle's `P/V/rejected` (counted as every
+    /// rejection), when this instance owns the vehicle; counted only otherwise (another member of
+    /// the fleet speaks for it).
+    fn tell(&self, key: &str, r: &Rejection) {
+        match self.vehicle_of_key(key) {
+            Some(vehicle) if validate_vehicle_id(vehicle).is_ok() => {
+                if self.hooks.owns(vehicle) {
+                    self.reject(vehicle, key, r);
+                }
+            }
+            _ => {
+                // (Not a vehicle's key: nobody to tell but the log and the counters.)
+                self.counters.reject(r.code);
+                tracing::warn!(key, code = r.code.as_str(), message = %r.message, "not told");
+            }
+        }
+    }
+
+    /// zenoh reports `count` puts on `key` lost (dispatcher thread, in order with the inputs): counted
+    /// per vehicle and in all, and told on the vehicle's `P/V/rejected` (`samples_missed`).
+    pub(super) fn missed(&self, key: &str, count: u64, source: &str) {
+        self.counters.missed.fetch_add(count, Ordering::Relaxed);
+        if let Some(v) = self.vehicle_of_key(key).and_then(|id| self.vehicle(id)) {
+            v.missed.fetch_add(count, Ordering::Relaxed);
+        }
+        tracing::info!(key, count, source, "samples missed");
+        let r = Rejection::new(
+            RejectCode::SamplesMissed,
+            format!(
+                "zenoh reports {count} put(s) on {key} from publisher {source} lost on the way and not recovered from its cache (too small, or no answer within service.ingest.query_timeout_s)"
+            ),
+        );
+        self.tell(key, &r);
+    }
+
+    /// Of the measurements decoded from a sequenced input of a vehicle restored from a checkpoint,
+    /// drops those at or before what the checkpoint held of their stream: zenoh delivers a
+    /// publisher's cache again to a restarted service, and what the checkpoint already used is no
+    /// input to refuse. Returns how many are left.
+    pub(super) fn skip_redelivered(&self, vehicle: &str, decoded: &mut Vec<Measurement>) -> usize {
+        let Some(newest) = self.vehicle(vehicle).and_then(|v| v.restored_newest) else {
+            return decoded.len();
+        };
+        let before = decoded.len();
+        decoded
+            .retain(|m| newest[crate::vehicle::stream_of(m) as usize].is_none_or(|t| m.t_s() > t));
+        let skipped = before - decoded.len();
+        if skipped > 0 {
+            self.admission
+                .redelivered
+                .fetch_add(skipped as u64, Ordering::Relaxed);
+        }
+        decoded.len()
     }
 }

@@ -18,12 +18,11 @@
 //! which fetched it before announcing itself): a takeover never starts from nothing while a holder
 //! lives.
 //!
-//! This module is the pure part: the configuration and the assignment. The engine keeps the members,
-//! the standby data and the takeovers; `service::membership` declares the token and watches the
-//! others.
+//! This file is the pure part: the configuration and the assignment. `member.rs` keeps the members,
+//! the standby data and the takeovers; `membership.rs` declares the token and watches the others.
 
-use super::keys::{route_of, ROUTES};
 use crate::rng::{fnv1a, splitmix64_mix, FNV_OFFSET};
+use crate::wire::keys::{route_of, ROUTES};
 use std::collections::{BTreeSet, VecDeque};
 
 /// How this instance takes part in a fleet.
@@ -98,7 +97,7 @@ pub fn parse_routes(spec: &str) -> Result<u16, String> {
         return Ok(ALL_ROUTES);
     }
     let digit = |c: char| {
-        super::keys::parse_route(&c.to_string())
+        crate::wire::keys::parse_route(&c.to_string())
             .ok_or_else(|| format!("'{c}' is not a route (0-9, a-f)"))
     };
     let mut mask = 0u16;

@@ -5,9 +5,8 @@
 //! sample.
 
 use super::cdr::{CdrError, Reader, Writer};
-use super::input::{ImuMsg, InputLimits};
-use super::{RejectCode, Rejection};
 use crate::sensors::ImuSample;
+use crate::wire::{ImuMsg, InputLimits, RejectCode, Rejection};
 use sha2::{Digest, Sha256};
 
 /// `builtin_interfaces/msg/Time`: the header stamp.
@@ -232,7 +231,7 @@ impl RosMagneticField {
             ));
         }
         let m = self.magnetic_field.map(|x| x * 1e6);
-        if m.iter().any(|x| x.abs() > super::input::MAX_MAGNITUDE) {
+        if m.iter().any(|x| x.abs() > crate::wire::MAX_MAGNITUDE) {
             return Err(Rejection::new(
                 RejectCode::OutOfRange,
                 "ros2: magnetic_field is beyond 1e94 T",

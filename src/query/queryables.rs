@@ -1,11 +1,14 @@
 //! The service's queryables: declared from one table, answered on the service's loop one query at a
 //! time (a reset in a task of its own), undeclared in the table's order. The reads behind them are
-//! the engine's (`engine/queries.rs`); here is their zenoh side: which key each reply goes on, its
+//! `reads.rs` and `metrics.rs`; here is their zenoh side: which key each reply goes on, its
 //! encoding, and the error replies.
 
-use super::engine::{Engine, EngineThreads, METRICS_ENCODING};
-use super::keys::{self, route_of, Keys, Leaf};
-use super::{zerr, ServiceError};
+use super::metrics::{metrics_text, METRICS_ENCODING};
+use super::reads;
+use crate::engine::Engine;
+use crate::fleet::Member;
+use crate::service::{zerr, ServiceError};
+use crate::wire::keys::{self, route_of, Keys, Leaf};
 use crate::wire::{decode_one, ErrorMsg, RejectCode, Rejection, ResetMsg};
 use serde::Serialize;
 use std::future::Future;
@@ -52,7 +55,7 @@ fn table(keys: &Keys, instance: &str) -> [(String, Answer); 10] {
 }
 
 /// The declared queryables, each with its key expression and what answers it.
-pub(super) struct Queryables {
+pub struct Queryables {
     declared: Vec<(String, Answer, Queryable<FifoChannelHandler<Query>>)>,
     /// The queryable the next wait looks at first, so that a busy one does not starve the others.
     first: usize,
@@ -60,7 +63,7 @@ pub(super) struct Queryables {
 
 impl Queryables {
     /// Declares the table's queryables of `keys` for this `instance`.
-    pub(super) async fn declare(
+    pub async fn declare(
         session: &zenoh::Session,
         keys: &Keys,
         instance: &str,
@@ -75,7 +78,7 @@ impl Queryables {
 
     /// The next query that comes to any of them, and which one it came to. (A queryable whose
     /// channel is closed is passed over.)
-    pub(super) async fn next(&mut self) -> (usize, Query) {
+    pub async fn next(&mut self) -> (usize, Query) {
         let n = self.declared.len();
         let first = self.first;
         let mut waiting: Vec<_> = self
@@ -102,10 +105,12 @@ impl Queryables {
     }
 
     /// Answers `q`, which came to the `i`-th queryable.
-    pub(super) async fn answer(
+    /// (`ingest_depth`: raw samples waiting in the ingest channel, for `P/@/metrics`.)
+    pub async fn answer(
         &self,
         engine: &Arc<Engine>,
-        threads: &EngineThreads,
+        member: &Arc<Member>,
+        ingest_depth: usize,
         i: usize,
         q: Query,
     ) {
@@ -113,19 +118,19 @@ impl Queryables {
         match answer {
             Answer::Attitude => {
                 per_vehicle(engine, &q, Leaf::Attitude, |e, v| {
-                    e.attitude_of(v).map(|a| json(&a))
+                    reads::attitude_of(e, v).map(|a| json(&a))
                 })
                 .await
             }
             Answer::Covariance => {
                 per_vehicle(engine, &q, Leaf::Covariance, |e, v| {
-                    e.covariance_of(v).map(|c| json(&c))
+                    reads::covariance_of(e, v).map(|c| json(&c))
                 })
                 .await
             }
             Answer::State => {
                 per_vehicle(engine, &q, Leaf::State, |e, v| {
-                    e.state_of(v).map(|s| json(&*s))
+                    reads::state_of(e, v).map(|s| json(&*s))
                 })
                 .await
             }
@@ -135,13 +140,13 @@ impl Queryables {
                 tokio::spawn(async move { reset(&engine, q).await });
             }
             Answer::Vehicles => vehicles(engine, &q, key).await,
-            Answer::Health => health(engine, &q, key).await,
-            Answer::Metrics => metrics(engine, threads.ingest.len(), &q, key).await,
+            Answer::Health => health(engine, member, &q, key).await,
+            Answer::Metrics => metrics(engine, member, ingest_depth, &q, key).await,
         }
     }
 
     /// Undeclares them, in the table's order.
-    pub(super) async fn undeclare(self) {
+    pub async fn undeclare(self) {
         for (_, _, queryable) in self.declared {
             let _ = queryable.undeclare().await;
         }
@@ -150,20 +155,25 @@ impl Queryables {
 
 async fn vehicles(engine: &Engine, q: &Query, key: &str) {
     engine.counters.queries.fetch_add(1, Ordering::Relaxed);
-    let list: Vec<_> = engine.vehicles().iter().map(|v| v.info()).collect();
-    reply(q, key, json(&list)).await;
+    reply(q, key, json(&reads::vehicles(engine))).await;
 }
 
-async fn health(engine: &Engine, q: &Query, key: &str) {
+async fn health(engine: &Engine, member: &Member, q: &Query, key: &str) {
     engine.counters.queries.fetch_add(1, Ordering::Relaxed);
-    reply(q, key, json(&engine.health())).await;
+    reply(q, key, json(&reads::health(engine, member))).await;
 }
 
 /// `P/@/metrics`: encoded off the async runtime's threads (it walks every vehicle).
-async fn metrics(engine: &Arc<Engine>, ingest_depth: usize, q: &Query, key: &str) {
+async fn metrics(
+    engine: &Arc<Engine>,
+    member: &Arc<Member>,
+    ingest_depth: usize,
+    q: &Query,
+    key: &str,
+) {
     engine.counters.queries.fetch_add(1, Ordering::Relaxed);
-    let e = engine.clone();
-    let text = tokio::task::spawn_blocking(move || e.metrics_text(ingest_depth))
+    let (e, m) = (engine.clone(), member.clone());
+    let text = tokio::task::spawn_blocking(move || metrics_text(&e, &m, ingest_depth))
         .await
         .unwrap_or_default();
     if let Err(e) = q

@@ -4,9 +4,12 @@
 //! lost and what could not be taken, counted per vehicle and told on its `P/V/rejected`. Nothing is
 //! dropped without a word: an input is handed over, or its sender is slowed, or told.
 
-use super::*;
+use super::{Engine, Inbound, INGEST_CAPACITY};
 use crate::rng::{fnv1a, FNV_OFFSET};
 use crossbeam_channel::TrySendError;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::time::Duration;
 
 /// What the subscribers hand the dispatcher, in arrival order.
@@ -56,7 +59,7 @@ const POLL: Duration = Duration::from_micros(250);
 
 /// Why an input could not be handed over.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum NoRoom {
+pub(super) enum NoRoom {
     /// Its vehicle's inputs waiting for the dispatcher already held
     /// `service.ingest.pending_bytes_per_vehicle`.
     Share,
@@ -66,11 +69,11 @@ enum NoRoom {
 
 /// What the dispatcher has to tell about one key that could not be handed over in order.
 #[derive(Default)]
-struct Untold {
-    refused: u64,
-    why: Option<NoRoom>,
-    missed: u64,
-    source: String,
+pub(super) struct Untold {
+    pub(super) refused: u64,
+    pub(super) why: Option<NoRoom>,
+    pub(super) missed: u64,
+    pub(super) source: String,
 }
 
 /// The subscribers' side of the ingest channel: each vehicle's share, the bounded wait of a plain
@@ -90,10 +93,10 @@ pub struct Admission {
     untold: Mutex<HashMap<String, Untold>>,
     any_untold: AtomicBool,
     /// Inputs that waited for room, and the nanoseconds waited.
-    pub(super) waited: AtomicU64,
-    pub(super) waited_ns: AtomicU64,
+    pub waited: AtomicU64,
+    pub waited_ns: AtomicU64,
     /// Samples of restored vehicles delivered again after a restart, skipped.
-    pub(super) redelivered: AtomicU64,
+    pub redelivered: AtomicU64,
 }
 
 /// Most keys kept to be told at once; beyond it a refusal is counted (`ingest_overflow`) but told
@@ -289,113 +292,20 @@ impl Admission {
     }
 }
 
-impl Engine {
-    /// The dispatcher's side: tells what the subscribers could not hand over (dispatcher thread,
-    /// between inputs).
-    pub(super) fn tell_untold(&self) {
-        if !self.admission.any_untold.swap(false, Ordering::AcqRel) {
-            return;
+impl Admission {
+    /// What the subscribers could not hand over since the last call, by key (the dispatcher tells it).
+    pub(super) fn take_untold(&self) -> Option<HashMap<String, Untold>> {
+        if !self.any_untold.swap(false, Ordering::AcqRel) {
+            return None;
         }
-        let untold = std::mem::take(
-            &mut *self
-                .admission
-                .untold
-                .lock()
-                .unwrap_or_else(|e| e.into_inner()),
-        );
-        for (key, u) in untold {
-            if u.missed > 0 {
-                self.missed(&key, u.missed, &u.source);
-            }
-            if u.refused > 0 {
-                let why = match u.why {
-                    Some(NoRoom::Share) => format!(
-                        "its vehicle's inputs waiting to be decoded already held {} bytes (service.ingest.pending_bytes_per_vehicle)",
-                        self.config.ingest.pending_bytes_per_vehicle
-                    ),
-                    _ => format!(
-                        "the service's ingest was full ({} bytes or {} inputs waiting to be decoded)",
-                        self.config.ingest.pending_bytes, self.admission.capacity
-                    ),
-                };
-                let r = Rejection::new(
-                    RejectCode::QueueFull,
-                    format!(
-                        "{} input(s) on {key} refused on arrival: {why}; the sender is faster than this service",
-                        u.refused
-                    ),
-                );
-                self.tell(&key, &r);
-            }
-        }
+        Some(std::mem::take(
+            &mut *self.untold.lock().unwrap_or_else(|e| e.into_inner()),
+        ))
     }
 
-    /// The vehicle of an input key (plain, routed, or the ROS 2 edge's).
-    fn vehicle_of_key<'a>(&self, key: &'a str) -> Option<&'a str> {
-        match self.keys.classify(key) {
-            Some(Received::Vehicle { vehicle, .. }) => Some(vehicle),
-            Some(_) => None,
-            None => self
-                .ros2
-                .as_ref()
-                .and_then(|e| e.route(key))
-                .map(|(v, ..)| v),
-        }
-    }
-
-    /// Publishes `r` about the input key `key` on its vehicle's `P/V/rejected` (counted as every
-    /// rejection), when this instance owns the vehicle; counted only otherwise (another member of
-    /// the fleet speaks for it).
-    fn tell(&self, key: &str, r: &Rejection) {
-        match self.vehicle_of_key(key) {
-            Some(vehicle) if validate_vehicle_id(vehicle).is_ok() => {
-                if self.owns(vehicle) {
-                    self.reject(vehicle, key, r);
-                }
-            }
-            _ => {
-                // (Not a vehicle's key: nobody to tell but the log and the counters.)
-                self.counters.reject(r.code);
-                tracing::warn!(key, code = r.code.as_str(), message = %r.message, "not told");
-            }
-        }
-    }
-
-    /// zenoh reports `count` puts on `key` lost (dispatcher thread, in order with the inputs): counted
-    /// per vehicle and in all, and told on the vehicle's `P/V/rejected` (`samples_missed`).
-    pub(super) fn missed(&self, key: &str, count: u64, source: &str) {
-        self.counters.missed.fetch_add(count, Ordering::Relaxed);
-        if let Some(v) = self.vehicle_of_key(key).and_then(|id| self.vehicle(id)) {
-            v.missed.fetch_add(count, Ordering::Relaxed);
-        }
-        tracing::info!(key, count, source, "samples missed");
-        let r = Rejection::new(
-            RejectCode::SamplesMissed,
-            format!(
-                "zenoh reports {count} put(s) on {key} from publisher {source} lost on the way and not recovered from its cache (too small, or no answer within service.ingest.query_timeout_s)"
-            ),
-        );
-        self.tell(key, &r);
-    }
-
-    /// Of the measurements decoded from a sequenced input of a vehicle restored from a checkpoint,
-    /// drops those at or before what the checkpoint held of their stream: zenoh delivers a
-    /// publisher's cache again to a restarted service, and what the checkpoint already used is no
-    /// input to refuse. Returns how many are left.
-    pub(super) fn skip_redelivered(&self, vehicle: &str, decoded: &mut Vec<Measurement>) -> usize {
-        let Some(newest) = self.vehicle(vehicle).and_then(|v| v.restored_newest) else {
-            return decoded.len();
-        };
-        let before = decoded.len();
-        decoded
-            .retain(|m| newest[crate::vehicle::stream_of(m) as usize].is_none_or(|t| m.t_s() > t));
-        let skipped = before - decoded.len();
-        if skipped > 0 {
-            self.admission
-                .redelivered
-                .fetch_add(skipped as u64, Ordering::Relaxed);
-        }
-        decoded.len()
+    /// The capacity of the ingest channel, in inputs.
+    pub(super) fn capacity(&self) -> usize {
+        self.capacity
     }
 }
 

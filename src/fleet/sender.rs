@@ -6,8 +6,8 @@
 //!
 //! A single instance takes routed inputs too (and no batch): routed senders work against either.
 
-use crate::service::keys::{route_of, Keys, Leaf, ROUTES};
-use crate::wire::batch::BatchWriter;
+use super::batch::BatchWriter;
+use crate::wire::keys::{route_of, Keys, Leaf, ROUTES};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use zenoh::bytes::Encoding;

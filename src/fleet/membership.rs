@@ -1,11 +1,12 @@
-//! Fleet membership on the network: the route subscriptions that follow the engine's `RoutePlan`,
+//! Fleet membership on the network: the route subscriptions that follow the member's `RoutePlan`,
 //! and a dynamic fleet's liveliness token and the subscriber that follows the other members. (Who
-//! owns which route is `service::fleet`; the takeovers are the engine's.)
+//! owns which route is `assignment.rs`; the takeovers are `member.rs`'s.)
 
-use super::engine::{Engine, RoutePlan};
-use super::fleet;
-use super::keys::{Keys, ROUTES};
-use super::{zerr, ServiceError};
+use super::assignment::Assignment;
+use super::member::{Member, RoutePlan};
+use crate::engine::{Engine, Task};
+use crate::service::{zerr, ServiceError};
+use crate::wire::keys::{Keys, ROUTES};
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use std::time::Duration;
@@ -14,15 +15,15 @@ use zenoh::sample::Locality;
 
 /// The routes an instance outside a dynamic fleet serves: those of its route set (`fleet.routes`,
 /// every route unless sharded by route), and no standby.
-pub(super) fn static_plan(engine: &Engine) -> RoutePlan {
+pub fn static_plan(member: &Member) -> RoutePlan {
     RoutePlan {
-        owned: (0..ROUTES as u8).filter(|&r| engine.serves(r)).collect(),
+        owned: (0..ROUTES as u8).filter(|&r| member.serves(r)).collect(),
         standby: Vec::new(),
     }
 }
 
 /// Resolves when `plan` changes (never without one: outside a dynamic fleet).
-pub(super) async fn plan_changed(
+pub async fn plan_changed(
     plan: &mut Option<watch::Receiver<RoutePlan>>,
 ) -> Result<(), watch::error::RecvError> {
     match plan.as_mut() {
@@ -33,7 +34,7 @@ pub(super) async fn plan_changed(
 
 /// The subscriptions that follow the routes: the routed inputs of each route owned (one for all when
 /// every route is), the standby batches of each route kept (one for all when more than half are).
-pub(super) struct Routing<F> {
+pub struct Routing<F> {
     keys: Keys,
     callback: F,
     /// By route; `None`: every route.
@@ -45,7 +46,7 @@ impl<F> Routing<F>
 where
     F: Fn(zenoh::sample::Sample) + Clone + Send + Sync + 'static,
 {
-    pub(super) fn new(keys: Keys, callback: F) -> Self {
+    pub fn new(keys: Keys, callback: F) -> Self {
         Routing {
             keys,
             callback,
@@ -56,7 +57,7 @@ where
 
     /// Subscribes to what `plan` needs and no more: the new subscriptions first, then the old ones
     /// undeclared, so that nothing in both is missed in between.
-    pub(super) async fn apply(
+    pub async fn apply(
         &mut self,
         session: &zenoh::Session,
         plan: &RoutePlan,
@@ -115,7 +116,7 @@ where
     }
 
     /// Follows `plan` to its latest value.
-    pub(super) async fn follow(
+    pub async fn follow(
         &mut self,
         session: &zenoh::Session,
         plan: &mut Option<watch::Receiver<RoutePlan>>,
@@ -131,7 +132,7 @@ where
         }
     }
 
-    pub(super) async fn close(self) {
+    pub async fn close(self) {
         for (_, sub) in self.owned.into_iter().chain(self.standby) {
             let _ = sub.undeclare().await;
         }
@@ -140,7 +141,7 @@ where
 
 /// The liveliness token that makes this instance a member, and the subscriber that follows the
 /// others.
-pub(super) struct Membership {
+pub struct Membership {
     token: zenoh::liveliness::LivelinessToken,
     watcher: zenoh::pubsub::Subscriber<()>,
 }
@@ -148,7 +149,7 @@ pub(super) struct Membership {
 impl Membership {
     /// Leaves the fleet (after the workers have finished: the others take over from their last
     /// estimates and replay what they kept since).
-    pub(super) async fn leave(self) {
+    pub async fn leave(self) {
         // (Lets the last estimates reach the others before the token's removal does.)
         tokio::time::sleep(Duration::from_millis(100)).await;
         let _ = self.watcher.undeclare().await;
@@ -160,10 +161,11 @@ impl Membership {
 /// has joined, reads the current estimates of those routes' vehicles (so the vehicles it takes start
 /// where their owners are), declares this instance's token, and follows the members from then on.
 /// The engine releases and takes over routes on each change.
-pub(super) async fn join_fleet<F>(
+pub async fn join_fleet<F>(
     session: &zenoh::Session,
     engine: &Arc<Engine>,
-    members_tx: &crossbeam_channel::Sender<BTreeSet<String>>,
+    member: &Arc<Member>,
+    tasks: &crossbeam_channel::Sender<Task>,
     routing: &mut Routing<F>,
 ) -> Result<Membership, ServiceError>
 where
@@ -191,19 +193,19 @@ where
     }
     // What this instance will own and hold: subscribed to (and kept) from now on.
     let joining = members.lock().unwrap_or_else(|e| e.into_inner()).clone();
-    engine.prepare(&joining);
-    if let Some(plan) = engine.route_plan() {
+    member.prepare(engine, &joining);
+    if let Some(plan) = member.route_plan() {
         let plan = plan.borrow().clone();
         routing.apply(session, &plan).await?;
     }
     if joining.len() > 1 {
         // The current estimates of the vehicles of the routes it will hold: the starting points of
         // what it takes.
-        let held: Vec<u8> = fleet::Assignment::of_routes(&joining, f.routes)
+        let held: Vec<u8> = Assignment::of_routes(&joining, f.routes)
             .map(|a| a.held_by(&f.instance))
             .unwrap_or_default()
             .into_iter()
-            .filter(|&r| engine.serves(r))
+            .filter(|&r| member.serves(r))
             .collect();
         let replies = session
             .get(keys.states_of_routes(&held))
@@ -214,7 +216,7 @@ where
         while let Ok(r) = replies.recv_async().await {
             if let Ok(sample) = r.result() {
                 if let Some((vehicle, _)) = keys.split(sample.key_expr().as_str()) {
-                    engine.remember_estimate(vehicle, &sample.payload().to_bytes());
+                    member.remember_estimate(vehicle, &sample.payload().to_bytes());
                 }
             }
         }
@@ -226,7 +228,8 @@ where
         .map_err(zerr)?;
     let watcher = {
         let members = members.clone();
-        let tx = members_tx.clone();
+        let tx = tasks.clone();
+        let member = member.clone();
         let keys = keys.clone();
         let group = f.group.clone();
         let me = f.instance.clone();
@@ -244,13 +247,13 @@ where
                     zenoh::sample::SampleKind::Delete if name != me => m.remove(name),
                     _ => false,
                 };
-                let _ = tx.send(m.clone());
+                let _ = tx.send(member.members_task(m.clone()));
             })
             .await
             .map_err(zerr)?
     };
     let initial = members.lock().unwrap_or_else(|e| e.into_inner()).clone();
     tracing::info!(instance = %f.instance, members = ?initial, "joined the fleet");
-    let _ = members_tx.send(initial);
+    let _ = tasks.send(member.members_task(initial));
     Ok(Membership { token, watcher })
 }

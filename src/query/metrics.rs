@@ -3,108 +3,45 @@
 //! filter is touched, no lock is held longer than one vehicle's inbox length); only the step-time
 //! histograms are kept for it, filled by the workers.
 
-use super::*;
-use crate::filters::FilterKind;
+use crate::engine::{Engine, Vehicle, VehicleTotals, INGEST_CAPACITY, KINDS};
+use crate::fleet::{FleetMode, Member};
 use prometheus_client::collector::Collector;
 use prometheus_client::encoding::{DescriptorEncoder, EncodeLabelSet, EncodeMetric};
 use prometheus_client::metrics::counter::ConstCounter;
 use prometheus_client::metrics::gauge::ConstGauge;
-use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
 use prometheus_client::metrics::info::Info;
 use prometheus_client::metrics::MetricType;
 use prometheus_client::registry::{Registry, Unit};
+use std::collections::BTreeMap;
 use std::fmt;
-use std::time::Duration;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 /// The zenoh encoding of a `P/@/metrics` reply, which zenoh's REST plugin sends as the HTTP
 /// Content-Type: what Prometheus needs to parse the text as OpenMetrics (`# EOF`, `_total`, units).
 pub const METRICS_ENCODING: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
 
-/// Filter step times, one histogram per filter kind (labelled `filter`).
-pub struct StepTimes([Histogram; 4]);
-
-impl Default for StepTimes {
-    fn default() -> Self {
-        // 1 µs to 1 s by factors of 2: an MEKF propagation (~1 µs) to a particle filter's update
-        // with many particles.
-        StepTimes(std::array::from_fn(|_| {
-            Histogram::new(exponential_buckets(1e-6, 2.0, 21))
-        }))
+/// The metrics as OpenMetrics text. `ingest_depth`: raw samples waiting in the ingest channel (the
+/// service owns its sender).
+pub fn metrics_text(engine: &Arc<Engine>, member: &Arc<Member>, ingest_depth: usize) -> String {
+    let mut registry = Registry::default();
+    registry.register_collector(Box::new(Scrape {
+        engine: engine.clone(),
+        member: member.clone(),
+        ingest_depth,
+    }));
+    let mut out = String::new();
+    // (Writing into a String cannot fail; a collector's error would leave the text partial.)
+    if let Err(e) = prometheus_client::encoding::text::encode(&mut out, &registry) {
+        tracing::error!(error = %e, "cannot encode the metrics");
     }
-}
-
-/// The filter kinds in the order of [`StepTimes`]; the match in `StepTimes::of` keeps it complete.
-const KINDS: [FilterKind; 4] = [
-    FilterKind::Mekf,
-    FilterKind::Usque,
-    FilterKind::Qpf,
-    FilterKind::Sghqf,
-];
-
-impl StepTimes {
-    fn of(&self, kind: FilterKind) -> &Histogram {
-        &self.0[match kind {
-            FilterKind::Mekf => 0,
-            FilterKind::Usque => 1,
-            FilterKind::Qpf => 2,
-            FilterKind::Sghqf => 3,
-        }]
-    }
-
-    /// Records one input's pass through its vehicle (`elapsed`, on a worker) as one observation per
-    /// sample it let through to the filter (`Event::Processed`), each an equal share: the count then
-    /// matches `processed`, the sum is the time spent. An input the reorder window only held records
-    /// nothing.
-    fn observe(&self, kind: FilterKind, elapsed: Duration, events: &[Event]) {
-        let n = events
-            .iter()
-            .filter(|e| matches!(e, Event::Processed(_)))
-            .count();
-        if n > 0 {
-            let h = self.of(kind);
-            let share = elapsed.as_secs_f64() / n as f64;
-            for _ in 0..n {
-                h.observe(share);
-            }
-        }
-    }
-}
-
-impl Engine {
-    /// Runs one input through its vehicle (`f`, on a worker), timed for `attitude_step_seconds`.
-    pub(super) fn timed<T>(
-        &self,
-        state: &mut VehicleState,
-        events: &mut Vec<Event>,
-        f: impl FnOnce(&mut VehicleState, &mut Vec<Event>) -> T,
-    ) -> T {
-        let started = Instant::now();
-        let out = f(state, events);
-        let kind = state.spec().kind;
-        self.counters.steps.observe(kind, started.elapsed(), events);
-        out
-    }
-
-    /// The metrics as OpenMetrics text. `ingest_depth`: raw samples waiting in the ingest channel
-    /// (the service owns its sender).
-    pub fn metrics_text(self: &Arc<Self>, ingest_depth: usize) -> String {
-        let mut registry = Registry::default();
-        registry.register_collector(Box::new(Scrape {
-            engine: self.clone(),
-            ingest_depth,
-        }));
-        let mut out = String::new();
-        // (Writing into a String cannot fail; a collector's error would leave the text partial.)
-        if let Err(e) = prometheus_client::encoding::text::encode(&mut out, &registry) {
-            tracing::error!(error = %e, "cannot encode the metrics");
-        }
-        out
-    }
+    out
 }
 
 /// One scrape of an engine.
 struct Scrape {
     engine: Arc<Engine>,
+    member: Arc<Member>,
     ingest_depth: usize,
 }
 
@@ -238,10 +175,8 @@ impl Collector for Scrape {
             "attitude_rejected",
             "refused inputs and requests by code (proto/README.md, Errors)",
             None,
-            RejectCode::ALL
-                .iter()
-                .zip(&c.rejected)
-                .map(|(code, n)| ([("code", code.as_str())], ConstCounter::new(load(n)))),
+            c.rejected_counts()
+                .map(|(code, n)| ([("code", code.as_str())], ConstCounter::new(n))),
         )?;
         family(
             &mut e,
@@ -256,30 +191,28 @@ impl Collector for Scrape {
             ]
             .map(|(outcome, n)| ([("outcome", outcome)], ConstCounter::new(load(n)))),
         )?;
+        let (takeovers, released, _) = self.member.moves();
         family(
             &mut e,
             "attitude_fleet_moves",
             "vehicles taken over from and released to other fleet members",
             None,
-            [
-                ("takeover", &engine.fleet.takeovers),
-                ("released", &engine.fleet.released),
-            ]
-            .map(|(kind, n)| ([("kind", kind)], ConstCounter::new(load(n)))),
+            [("takeover", takeovers), ("released", released)]
+                .map(|(kind, n)| ([("kind", kind)], ConstCounter::new(n))),
         )?;
 
         // Gauges: what the service holds now.
         let mut by_kind: BTreeMap<(&'static str, &'static str), i64> = BTreeMap::new();
         let mut inbox = Vec::with_capacity(vehicles.len());
         for v in &vehicles {
-            let kind = v.info.kind().as_str();
-            let state = if v.info.is_tracking() {
+            let kind = v.kind().as_str();
+            let state = if v.is_tracking() {
                 "tracking"
             } else {
                 "initializing"
             };
             *by_kind.entry((kind, state)).or_default() += 1;
-            inbox.push(v.inbox.lock().unwrap_or_else(|e| e.into_inner()).len());
+            inbox.push(v.inbox_len());
         }
         family(
             &mut e,
@@ -306,7 +239,7 @@ impl Collector for Scrape {
             &mut e,
             "attitude_work_queue_depth",
             "vehicles scheduled and waiting for a worker",
-            signed(engine.work_tx.len()),
+            signed(engine.work_queue_depth()),
         )?;
         gauge(
             &mut e,
@@ -324,12 +257,7 @@ impl Collector for Scrape {
             &mut e,
             "attitude_held_samples",
             "samples held in the vehicles' reorder windows, summed",
-            signed(
-                vehicles
-                    .iter()
-                    .map(|v| v.held.load(Ordering::Relaxed))
-                    .sum(),
-            ),
+            signed(vehicles.iter().map(|v| v.totals().held).sum()),
         )?;
         gauge(
             &mut e,
@@ -337,7 +265,7 @@ impl Collector for Scrape {
             "live members of this instance's fleet (itself included)",
             signed(match config.fleet.mode {
                 FleetMode::Single => 1,
-                FleetMode::Dynamic => engine.members().map_or(0, |m| m.len()),
+                FleetMode::Dynamic => self.member.members().map_or(0, |m| m.len()),
             }),
         )?;
 
@@ -348,7 +276,7 @@ impl Collector for Scrape {
             Some(&Unit::Seconds),
             KINDS
                 .iter()
-                .map(|k| ([("filter", k.as_str())], c.steps.of(*k).clone())),
+                .map(|k| ([("filter", k.as_str())], c.step_times().of(*k).clone())),
         )?;
 
         self.per_vehicle(&mut e, &vehicles, &inbox)
@@ -372,10 +300,15 @@ impl Scrape {
             "vehicles beyond service.metrics.max_vehicles, which have no per-vehicle series",
             signed(vehicles.len() - shown.len()),
         )?;
-        let each = |f: &dyn Fn(&Vehicle) -> u64| {
+        let each = |f: &dyn Fn(&VehicleTotals) -> u64| {
             shown
                 .iter()
-                .map(move |v| ([("vehicle", v.id.clone())], ConstCounter::new(f(v))))
+                .map(move |v| {
+                    (
+                        [("vehicle", v.id.clone())],
+                        ConstCounter::new(f(&v.totals())),
+                    )
+                })
                 .collect::<Vec<_>>()
         };
         family(
@@ -383,30 +316,26 @@ impl Scrape {
             "attitude_vehicle_received",
             "samples accepted into the vehicle's queue",
             None,
-            each(&|v| load(&v.received)),
+            each(&|t| t.received),
         )?;
         family(
             e,
             "attitude_vehicle_processed",
             "samples the vehicle's filter used",
             None,
-            each(&|v| load(&v.processed)),
+            each(&|t| t.processed),
         )?;
         family(
             e,
             "attitude_vehicle_estimates_published",
             "estimates the vehicle published (the seq of its last one)",
             None,
-            each(&|v| v.info.estimates()),
+            each(&|t| t.estimates),
         )?;
         // Only the codes that occurred: per vehicle and code the zeros would be most of the text.
         let mut rejected = Vec::new();
         for v in shown {
-            let codes = v
-                .rejected_by_code
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .clone();
+            let codes = v.rejected_by_code();
             for (code, n) in codes {
                 rejected.push((
                     [("vehicle", v.id.clone()), ("code", code)],
@@ -426,7 +355,7 @@ impl Scrape {
             "attitude_vehicle_gaps",
             "gaps in the vehicle's gyro or raw-IMU samples, bridged and paid for in the covariance (gap)",
             None,
-            each(&|v| load(&v.gaps)),
+            each(&|t| t.gaps),
         )?;
         family(
             e,
@@ -438,7 +367,7 @@ impl Scrape {
                 .map(|v| {
                     (
                         [("vehicle", v.id.clone())],
-                        ConstCounter::new(load(&v.blind_us) as f64 * 1e-6),
+                        ConstCounter::new(v.totals().blind_us as f64 * 1e-6),
                     )
                 })
                 .collect::<Vec<_>>(),
@@ -448,7 +377,7 @@ impl Scrape {
             "attitude_vehicle_samples_missed",
             "puts of the vehicle's inputs zenoh reported lost and not recovered",
             None,
-            each(&|v| load(&v.missed)),
+            each(&|t| t.missed),
         )?;
         family(
             e,
@@ -468,7 +397,7 @@ impl Scrape {
             shown.iter().map(|v| {
                 (
                     [("vehicle", v.id.clone())],
-                    ConstGauge::new(signed(v.held.load(Ordering::Relaxed))),
+                    ConstGauge::new(signed(v.totals().held)),
                 )
             }),
         )

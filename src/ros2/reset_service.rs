@@ -13,9 +13,9 @@
 //! (`@/<bridge>/@ros2_lv/SS/<key>/<type>`) makes the bridge create the DDS service endpoints, so
 //! `ros2 service list` and a client's `wait_for_service` see it before any call.
 
+use super::cdr::{Reader, Writer};
 use super::Edge;
-use crate::service::engine::Engine;
-use crate::wire::cdr::{Reader, Writer};
+use crate::engine::Engine;
 use crate::wire::ResetMsg;
 use std::sync::Arc;
 use std::time::Duration;

@@ -1,6 +1,6 @@
 //! `service.ros2`: what the file says (with its defaults) and its validation.
 
-use crate::service::keys::Ros2Format;
+use super::keys::Ros2Format;
 use crate::wire::validate_vehicle_id;
 use serde::Deserialize;
 

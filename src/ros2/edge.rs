@@ -1,7 +1,7 @@
-//! The ROS 2 edge (`service.ros2`, `proto/ros2.md`): `sensor_msgs/msg/Imu` (and `MagneticField`) in on
+//! The ROS 2 edge without the network ([`Edge`]): `sensor_msgs/msg/Imu` (and `MagneticField`) in on
 //! rmw_zenoh's keys or zenoh-bridge-ros2dds', `sensor_msgs/msg/Imu` out with the estimated
-//! orientation, and, on the network side (`net.rs`), the liveliness tokens of rmw_zenoh's graph, the
-//! attachments and `/diagnostics`.
+//! orientation. (The network side, `net.rs`: the subscriptions, the liveliness tokens of rmw_zenoh's
+//! graph, the attachments and `/diagnostics`.)
 //!
 //! [`Edge`] has no zenoh session: the engine's dispatcher thread hands it an input's key and payload
 //! and gets the same domain `ImuSample` that `P/V/imu` gives (decoded there, never in a zenoh
@@ -9,20 +9,15 @@
 //! its outlet says someone subscribes. The magnetometer arrives on a topic of its own: its last reading
 //! waits (per vehicle, on the dispatcher thread) for the IMU sample it is paired with.
 
-pub mod config;
-pub mod dds;
-pub mod net;
-pub mod reset;
-
-pub use config::{CovarianceFrame, RawRos2, Ros2Config};
-
+use super::config::{CovarianceFrame, Ros2Config};
 use super::keys::{Ros2Format, Ros2Keys};
+
+use super::msgs::{cdr_rejection, Header, RosImu, RosMagneticField, RosType, Stamp};
+use crate::engine::{Engine, Inbound, Vehicle};
 use crate::sensors::Measurement;
-use crate::wire::{
-    cdr_rejection, validate_vehicle_id, EstimateMsg, Header, InputLimits, RejectCode, Rejection,
-    RosImu, RosMagneticField, RosType, Stamp,
-};
+use crate::wire::{validate_vehicle_id, EstimateMsg, InputLimits, RejectCode, Rejection};
 use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
 use std::sync::{Mutex, OnceLock};
 
 /// The type hash a Humble publisher puts in its keys (it has no type hashes).
@@ -84,6 +79,30 @@ pub struct Edge {
 }
 
 impl Edge {
+    /// An input on a key of the edge (the engine's dispatcher thread, through its hooks), decoded
+    /// into the same measurement as `P/V/imu` and queued by the same path ([`Engine::queue`]); `None`
+    /// for any other key. A magnetometer message queues nothing: it waits for the IMU sample it goes
+    /// with. (Another member's vehicle: nothing kept. ROS 2 inputs are not routed, every member of a
+    /// fleet receives them, and a takeover replays only the JSON leaves' inputs: a vehicle fed over ROS
+    /// continues on its new owner from the last estimate and the ROS inputs from then on.)
+    pub fn dispatch(
+        &self,
+        engine: &Engine,
+        inbound: Inbound,
+        decoded: &mut Vec<Measurement>,
+    ) -> Option<Arc<Vehicle>> {
+        let (vehicle, input, ty, hash) = self.route(&inbound.key)?;
+        if !engine.owns(vehicle) {
+            return None;
+        }
+        let limits = &engine.config.limits.input;
+        let result = self.decode(vehicle, input, ty, hash, &inbound.payload, limits, decoded);
+        match result {
+            Ok(0) => None,
+            result => engine.queue(vehicle, &inbound.key, result, decoded),
+        }
+    }
+
     pub fn new(config: Ros2Config, max_vehicles: usize) -> Edge {
         let keys = Ros2Keys::new(config.format, config.domain_id, &config.namespace);
         let mut topics = vec![config.imu_topic.clone()];
