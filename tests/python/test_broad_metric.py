@@ -1,4 +1,4 @@
-"""One BROAD metric: attitude_client.replay's `broad_scores` gives the numbers of src/study/broad.rs.
+"""One BROAD metric: attitude_client.replay's `broad_scores` gives the numbers of crates/attitude-lab/src/study/broad.rs.
 
 `attitude-lab imu-study` runs both committed excerpts (tests/data/broad/, exported by scripts/broad-export.py)
 through the service's vehicle pipeline, scores them in Rust and writes every sample's estimate (`--series`: q and the
@@ -70,7 +70,7 @@ def test_python_scores_equal_the_rust_scores(tmp_path, spec):
 
 def test_scores_of_known_errors():
     """A pure heading error of 3° is 3° total and heading, 0 inclination; a tilt of 2° about east 2° total and
-    inclination (src/study/broad.rs's own test); a stated σ of 1° against a 2° tilt error: NEES 4 / (1 + 0.04)."""
+    inclination (crates/attitude-lab/src/study/broad.rs's own test); a stated σ of 1° against a 2° tilt error: NEES 4 / (1 + 0.04)."""
     deg = np.pi / 180
     truth = np.array([[np.cos(0.4), 0.1, -0.3, np.sin(0.4)]])
     truth /= np.linalg.norm(truth)

@@ -30,7 +30,7 @@ What it does (it never starts the service):
    pipeline averages its first ``service.imu.init.duration_s`` of samples), ``missing`` after it (lost, or
    thinned by ``service.imu.max_estimate_rate_hz``). Runs VQF (PyPI ``vqf``, 9D) and Madgwick (PyPI ``ahrs``,
    MARG, gain β = 0.12, BROAD's TAGP value for Madgwick) on the same samples.
-4. Scores with :func:`broad_scores`, the definitions of ``src/study/broad.rs`` (``tests/python/test_broad_metric.py``
+4. Scores with :func:`broad_scores`, the definitions of ``crates/attitude-lab/src/study/broad.rs`` (``tests/python/test_broad_metric.py``
    holds the two equal):
 
    * accuracy, every estimator (BROAD's ``example_code/broad_utils.py`` ``calculateRMSE``): ``e = q_est ⊗ q_opt⁻¹``
@@ -74,7 +74,7 @@ ATTRIBUTION = (
 )
 #: Madgwick's gain: BROAD's TAGP parameter for Madgwick (published_madgwick_rmse.json).
 MADGWICK_BETA = 0.12
-#: χ²₂ 99% quantile, the two-sided 99% of a normal, and the truth's own tilt error (rad): src/study/broad.rs.
+#: χ²₂ 99% quantile, the two-sided 99% of a normal, and the truth's own tilt error (rad): crates/attitude-lab/src/study/broad.rs.
 CHI2_2_99 = 9.210340371976182
 CHI2_3_99 = 11.344866730144373
 Z_99 = 2.575829303548901
@@ -84,7 +84,7 @@ ACCURACY_KEYS = ("total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg")
 HONESTY_KEYS = ("tilt_in99", "tilt_nees_median", "heading_in99", "heading_offset_deg", "att_in99", "att_nees_median")
 
 # ---------------------------------------------------------------------------------------------------
-# Quaternions, Hamilton [w, x, y, z]; the scores of src/study/broad.rs
+# Quaternions, Hamilton [w, x, y, z]; the scores of crates/attitude-lab/src/study/broad.rs
 
 
 def quatmult(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
@@ -161,7 +161,7 @@ def alignment(q_est: np.ndarray, q_true: np.ndarray) -> tuple[np.ndarray, np.nda
     """The constant rotations ``L`` (reference) and ``R`` (body) with ``q_true ≈ L·q_est·R`` (Hamilton) over the
     rows given (unit, finite): ``R`` starts from the relative rotations alone (:func:`_body_start`), then
     alternately the average of ``q_true·R⁻¹·q_est⁻¹`` with ``R`` held and of ``q_est⁻¹·L⁻¹·q_true`` with ``L``
-    held, until neither moves by more than 1e-9 rad (at most 50 rounds): ``alignment`` of src/study/broad.rs."""
+    held, until neither moves by more than 1e-9 rad (at most 50 rounds): ``alignment`` of crates/attitude-lab/src/study/broad.rs."""
     r = _body_start(q_est, q_true)
     l = quat_average(quatmult(quatmult(q_true, invquat(r)), invquat(q_est)))
     for _ in range(50):
@@ -191,7 +191,7 @@ def broad_scores(
     truth: dict | None = None,
     gyr: np.ndarray | None = None,
 ) -> dict:
-    """The scores of ``src/study/broad.rs`` over the ``movement`` samples with an estimate and a truth.
+    """The scores of ``crates/attitude-lab/src/study/broad.rs`` over the ``movement`` samples with an estimate and a truth.
 
     ``q_est``, ``q_true``: (n, 4) Hamilton ``[w, x, y, z]`` of body → reference (East-North-Up, magnetic north),
     NaN rows where there is none. ``cov_att``: (n, 3, 3) covariance of the body-frame attitude error, rad², or
@@ -261,7 +261,7 @@ def truth_model(truth: dict | None) -> dict:
 def _honesty(
     qe: np.ndarray, e: np.ndarray, w: np.ndarray, p_att: np.ndarray, m: int, truth: dict, rates: np.ndarray | None
 ) -> dict:
-    """Tilt NEES, heading and 3-axis coverage (src/study/broad.rs), on the scored rows."""
+    """Tilt NEES, heading and 3-axis coverage (crates/attitude-lab/src/study/broad.rs), on the scored rows."""
     if m == 0:
         return {k: float("nan") for k in HONESTY_KEYS}
     v = e[:, 1:]
@@ -766,7 +766,7 @@ def main() -> int:
         print(f"{name:<14} {r['total_rmse_deg']:>8.2f} {r['heading_rmse_deg']:>9.2f} "
               f"{r['inclination_rmse_deg']:>8.2f}{honesty}   {note}")
     print(f"BROAD RMSE over `movement` (broad_utils.calculateRMSE, alignment: {trial['truth']['align']}); honesty as "
-          "src/study/broad.rs. " + ATTRIBUTION)
+          "crates/attitude-lab/src/study/broad.rs. " + ATTRIBUTION)
     return 0
 
 
