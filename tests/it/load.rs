@@ -3,52 +3,15 @@
 //! estimate is made; a batch is decoded straight into measurements.
 
 use crate::common::{collecting_engine, free_port, open_zenoh, service_config, wait_until};
-use attitude_service::attitude::Quaternion;
 use attitude_service::engine::{Alone, Engine, EstimateOutlet, Inbound, Outlets, Sink};
 use attitude_service::query;
 use attitude_service::service::outlets::estimate_outlets;
+use attitude_service::tools::synthetic::{imu_sample, star_set};
 use attitude_service::wire::keys::Keys;
-use attitude_service::wire::{EstimateMsg, ImuMsg, ObservationMsg, VectorsMsg};
-use nalgebra::Vector3;
+use attitude_service::wire::{EstimateMsg, ImuMsg};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// Three star vectors at `t` seen by vehicle `i` at a fixed attitude (a rotation about z by i·0.01
-/// rad): the vector set the lab's `loadgen` sends.
-fn star_set(t: f64, i: usize) -> VectorsMsg {
-    let a = i as f64 * 0.01;
-    let (c, s) = (a.cos(), a.sin());
-    let refs = [[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.0, -0.8, 0.6]];
-    VectorsMsg {
-        t,
-        obs: refs
-            .iter()
-            .map(|r| ObservationMsg {
-                body: [c * r[0] + s * r[1], -s * r[0] + c * r[1], r[2]],
-                reference: *r,
-                sigma: 1e-4,
-                sensor: None,
-            })
-            .collect(),
-    }
-}
-
-/// A raw IMU sample at `t` of vehicle `i` turning at a constant rate: the sample the lab's `loadgen`
-/// sends (`--imu N`).
-fn imu_sample(t: f64, i: usize) -> ImuMsg {
-    let w = Vector3::new(0.1, -0.05, 0.2 + 0.01 * (i % 7) as f64);
-    let q = Quaternion::from_rotation_vector(&(w * t));
-    let a = q.attitude_matrix();
-    let g = a * Vector3::new(0.0, 0.0, 9.81);
-    let m = a * Vector3::new(0.0, 15.6, -41.7);
-    ImuMsg {
-        t,
-        gyr: [w[0], w[1], w[2]],
-        acc: [g[0], g[1], g[2]],
-        mag: Some([m[0], m[1], m[2]]),
-    }
-}
 
 /// An outlet of the service that counts the estimates put through it.
 struct Counting {

@@ -9,10 +9,9 @@
 //! received. At the end it compares the first window with the last (memory and p99), stops the child
 //! with SIGTERM and reports how it exited. Not run in CI.
 
-use crate::tools::loadgen::{
-    count_rejections, drain, latency_us, probe, star_set, time_key, Pending,
-};
+use crate::tools::loadgen::{count_rejections, drain, latency_us, probe, time_key, Pending};
 use attitude_core::filters::FilterSpec;
+use attitude_service::tools::synthetic::star_set;
 use attitude_service::wire::keys::{Keys, Leaf};
 use attitude_service::wire::GyroMsg;
 use serde::Serialize;
