@@ -360,42 +360,54 @@ impl Qpf {
         let mut fid = self.q_prop;
         // The weights are normalised lazily: by the next moments pass, with this factor.
         let mut scale = 1.0;
+        // A tilt reading far sharper than the cloud is applied as a linear-Gaussian update
+        // (`gaussian_tilt`, `GAUSSIAN_TILT_STAGES`), the rest by weights. The tilt readings' own
+        // likelihoods decide; when they are the whole update (the IMU pipeline's tilt updates) and are
+        // weighed after all, they are the first stage's.
+        let is_tilt = |o: &VectorObservation| matches!(o.aspect, Aspect::Tilt(_));
         let rest: Vec<VectorObservation>;
         let rest_evidence;
         let mut evidence = evidence;
-        // A tilt reading far sharper than the cloud is applied as a linear-Gaussian update
-        // (`gaussian_tilt`, `GAUSSIAN_TILT_STAGES`), the rest by weights.
+        let mut weighed = None;
         if let Evidence::Vectors(obs) = evidence {
-            let tilt: Vec<VectorObservation> = obs
-                .iter()
-                .filter(|o| matches!(o.aspect, Aspect::Tilt(_)))
-                .cloned()
-                .collect();
+            let all_tilt = obs.iter().all(is_tilt);
+            let some: Vec<VectorObservation>;
+            let tilt = if all_tilt {
+                *obs
+            } else {
+                some = obs.iter().filter(|o| is_tilt(o)).cloned().collect();
+                &some[..]
+            };
             if !tilt.is_empty() {
-                let t = self.prepare(&tilt);
-                let [lo, hi] = self.log_likelihoods(&Evidence::Vectors(&tilt), t.as_ref(), &fid);
-                if hi - lo > GAUSSIAN_TILT_STAGES * self.options.pc_spread
-                    && self.gaussian_tilt(&tilt, &fid, &mut scale)
+                let terms = self.prepare(tilt);
+                let spread = self.log_likelihoods(&Evidence::Vectors(tilt), terms.as_ref(), &fid);
+                if spread[1] - spread[0] > GAUSSIAN_TILT_STAGES * self.options.pc_spread
+                    && self.gaussian_tilt(tilt, &fid, &mut scale)
                 {
-                    rest = obs
-                        .iter()
-                        .filter(|o| !matches!(o.aspect, Aspect::Tilt(_)))
-                        .cloned()
-                        .collect();
-                    if rest.is_empty() {
+                    if all_tilt {
                         return self.conclude(&fid, &mut scale, 0);
                     }
+                    rest = obs.iter().filter(|o| !is_tilt(o)).cloned().collect();
                     rest_evidence = Evidence::Vectors(&rest);
                     evidence = &rest_evidence;
+                } else if all_tilt {
+                    // (`gaussian_tilt` changes nothing when it declines.)
+                    weighed = Some((terms, spread));
                 }
             }
         }
-        let terms = match evidence {
-            Evidence::Vectors(o) => self.prepare(o),
-            Evidence::Bias(..) => None,
-        };
         // 2–3. Progressive correction with re-centring after every weight change.
-        let mut spread = self.log_likelihoods(evidence, terms.as_ref(), &fid);
+        let (terms, mut spread) = match weighed {
+            Some(w) => w,
+            None => {
+                let terms = match evidence {
+                    Evidence::Vectors(o) => self.prepare(o),
+                    Evidence::Bias(..) => None,
+                };
+                let spread = self.log_likelihoods(evidence, terms.as_ref(), &fid);
+                (terms, spread)
+            }
+        };
         let mut remaining = 1.0;
         let mut stages = 0u32;
         loop {
