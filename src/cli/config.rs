@@ -6,7 +6,7 @@ use anyhow::Result;
 use std::path::PathBuf;
 
 /// The built-in configuration: exactly config/default.json5.
-const DEFAULT_CONFIG: &str = include_str!("../../config/default.json5");
+pub const DEFAULT_CONFIG: &str = include_str!("../../config/default.json5");
 
 /// The configuration file of `--config`, or the built-in default.
 pub fn load_config(path: Option<&PathBuf>) -> Result<service_config::FileConfig> {

@@ -2,8 +2,8 @@
 //! scored, printed as a table or JSON; with `--tune`, the tuning by coordinate descent and leave-one-out.
 
 use crate::tools::imu_study::{
-    load_config, objective, read_trial, start_point, study, table, trial_paths, Setup, Trial,
-    TuneSpec, Tuner,
+    effective_config, load_config, objective, read_trial, start_point, study, table, trial_paths,
+    Setup, Trial, TuneSpec, Tuner,
 };
 use anyhow::Result;
 use attitude_core::filters::FilterSpec;
@@ -100,10 +100,9 @@ fn tune(args: &ImuStudyArgs, spec_path: &std::path::Path, trials: &[Trial]) -> R
             }
         }
     }
-    let text = std::fs::read_to_string(&args.config)?;
     let mut tuner = Tuner::new(&args.config, &args.sets, &spec, trials, args.filter)?;
     let all: Vec<usize> = (0..trials.len()).collect();
-    let start = start_point(&spec, &text);
+    let start = start_point(&spec, &effective_config(&args.config)?);
     let values = |point: &[usize]| -> serde_json::Value {
         spec.parameters
             .iter()

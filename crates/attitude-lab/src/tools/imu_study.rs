@@ -24,7 +24,10 @@ use attitude_core::attitude::Quaternion;
 use attitude_core::filters::FilterSpec;
 use attitude_core::sensors::{ImuSample, Measurement};
 use attitude_core::vehicle::{Event, ImuDiagnostics, Published, VehicleState};
-use attitude_service::service::config::{self, Policy, ServiceConfig, VehicleFilterConfig};
+use attitude_service::cli::config::DEFAULT_CONFIG;
+use attitude_service::service::config::{
+    self, extends, Policy, ServiceConfig, VehicleFilterConfig,
+};
 use attitude_service::wire::ImuDiagnosticsMsg;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -830,14 +833,34 @@ impl<'a> Tuner<'a> {
     }
 }
 
-/// The start of the descent: for each parameter, the candidate nearest to the configuration's own
-/// value (read from the file as it is), else the first.
-pub fn start_point(spec: &TuneSpec, config_text: &str) -> Vec<usize> {
-    let value: serde_json::Value = json5::from_str(config_text).unwrap_or_default();
+/// The configuration file at `path` as the service reads it: its `extends` chain resolved and laid
+/// over the built-in defaults (`config/default.json5`), so an option the file does not state has the
+/// value it takes (a preset states only what it changes).
+pub fn effective_config(path: &Path) -> Result<serde_json::Value, StudyError> {
+    let origin = path.display().to_string();
+    let read = |p: &Path| -> Result<serde_json::Value, StudyError> {
+        let text = std::fs::read_to_string(p).map_err(|e| StudyError::Io {
+            path: p.display().to_string(),
+            message: e.to_string(),
+        })?;
+        json5::from_str(&text).map_err(|e| StudyError::Config(format!("{}: {e}", p.display())))
+    };
+    let file =
+        extends::resolve(read(path)?, &origin, &extends::read_file).map_err(StudyError::Config)?;
+    let defaults: serde_json::Value = json5::from_str(DEFAULT_CONFIG)
+        .map_err(|e| StudyError::Config(format!("built-in defaults: {e}")))?;
+    Ok(extends::merge(defaults, file))
+}
+
+/// The start of the descent: for each parameter, the candidate nearest to the value the
+/// configuration gives it (`config`: the file with its `extends` resolved, laid over the built-in
+/// defaults, [`effective_config`]), else the first.
+pub fn start_point(spec: &TuneSpec, config: &serde_json::Value) -> Vec<usize> {
+    let value = config;
     spec.parameters
         .iter()
         .map(|p| {
-            let mut at = &value;
+            let mut at = value;
             for key in p.path.split('.') {
                 at = &at[key];
             }

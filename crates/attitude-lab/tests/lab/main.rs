@@ -8,3 +8,4 @@ mod binaries;
 mod loadgen;
 mod montecarlo_cli;
 mod soak_cli;
+mod tuning;
