@@ -9,7 +9,7 @@ use attitude_service::ahrs::{Ahrs, AhrsConfig};
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::mekf::{bias_update, heading_update, tilt_update};
 use attitude_service::filters::{build_filter, FilterConfig, GyroErrors, InitialState};
-use attitude_service::sensors::imu::{heading_basis, heading_jacobian};
+use attitude_service::sensors::heading::{heading_basis, heading_jacobian};
 use attitude_service::sensors::{GyroNoise, ImuSample, Measurement};
 use attitude_service::service::config::{Policy, VehicleFilterConfig};
 use attitude_service::vehicle::{Event, ResetRequest, VehicleState};

@@ -1,4 +1,4 @@
-//! The IMU sensor models (`sensors::imu`, `service.sensors.NAME.kind`): heading-only updates never
+//! The IMU sensor models (`sensors::model`, `service.sensors.NAME.kind`): heading-only updates never
 //! tilt and do correct the heading, a disturbed magnetometer is detected and held off, a large
 //! accelerometer norm deviation gates the accelerometer, and the service's config reads the models
 //! and refuses wrong ones. (These are the models of named sensors on `P/V/vectors`; raw samples on
@@ -7,7 +7,9 @@
 use crate::common::estimates;
 use attitude_service::attitude::Quaternion;
 use attitude_service::filters::{build_filter, FilterConfig, InitialState};
-use attitude_service::sensors::imu::{FieldModel, GravityModel, SensorModel, SensorState, Verdict};
+use attitude_service::sensors::field::FieldModel;
+use attitude_service::sensors::gravity::GravityModel;
+use attitude_service::sensors::model::{SensorModel, SensorState, Verdict};
 use attitude_service::sensors::{
     Aspect, GyroNoise, GyroSample, Measurement, ObservationSet, VectorObservation,
 };
@@ -272,6 +274,24 @@ fn the_sensor_models_load_and_wrong_sensor_options_are_refused() {
         r#"{service: {sensors: {a: {kind: "gravity", norm_gate: -1}}}}"#,
     ] {
         assert!(config::parse(bad, "test").is_err(), "accepted {bad}");
+    }
+    // The message names the setting by its path (the one wording of `sensors::check`).
+    for (bad, named) in [
+        (
+            r#"{service: {sensors: {a: {kind: "gravity", norm_gate: -1}}}}"#,
+            "service.sensors.a.norm_gate",
+        ),
+        (
+            r#"{service: {sensors: {b: {kind: "field", dip_limit_deg: -5}}}}"#,
+            "service.sensors.b.dip_limit_deg",
+        ),
+        (
+            r#"{service: {imu: {mag: {norm_limit: 0}}}}"#,
+            "mag.norm_limit",
+        ),
+    ] {
+        let e = format!("{:#}", config::parse(bad, "test").unwrap_err());
+        assert!(e.contains(named), "{e}");
     }
 }
 

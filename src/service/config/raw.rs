@@ -2,12 +2,13 @@
 //! section with its defaults. `super` validates it into the service's and the vehicles' types.
 
 use super::{IngestConfig, MetricsConfig};
-use crate::ahrs::{
-    AccConfig, GyroConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig, SensorSheet,
-};
+use crate::ahrs::{InitConfig, RecoveryConfig, RestConfig, SensorSheet};
 use crate::filters::{GapModel, QpfOptions};
 use crate::fleet::FleetConfig;
-use crate::sensors::imu::{FieldModel, GravityModel, SensorModel};
+use crate::sensors::field::{FieldModel, MagConfig};
+use crate::sensors::gravity::{AccConfig, GravityModel};
+use crate::sensors::gyro::GyroConfig;
+use crate::sensors::model::SensorModel;
 use crate::sensors::GyroNoise;
 use crate::wire::InputLimits;
 use serde::Deserialize;
@@ -174,7 +175,7 @@ impl Default for RawGate {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSensor {
     pub(super) gate_probability: Option<f64>,
-    /// "vector" (default), "gravity" or "field" (crate::sensors::imu).
+    /// "vector" (default), "gravity" or "field" (crate::sensors::model).
     pub(super) kind: Option<String>,
     pub(super) sigma_norm_scale: Option<f64>,
     pub(super) norm_gate: Option<f64>,
@@ -189,17 +190,6 @@ pub(super) struct RawSensor {
 /// The model of one `service.sensors.NAME` entry (`None` for a plain vector sensor).
 pub(super) fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorModel>, String> {
     let at = |field: &str| format!("service.sensors.{name}.{field}");
-    let nonneg = |v: Option<f64>, field: &str, default: f64| -> Result<f64, String> {
-        let v = v.unwrap_or(default);
-        if v >= 0.0 && !v.is_nan() {
-            Ok(v)
-        } else {
-            Err(format!(
-                "{} must be a non-negative number, got {v}",
-                at(field)
-            ))
-        }
-    };
     let kind = s.kind.as_deref().unwrap_or("vector");
     let only = |ok: bool, field: &str, present: bool| -> Result<(), String> {
         if present && !ok {
@@ -222,11 +212,15 @@ pub(super) fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorMod
     only(f, "vertical", s.vertical.is_some())?;
     match kind {
         "vector" => Ok(None),
-        "gravity" => Ok(Some(SensorModel::Gravity(GravityModel {
-            sigma_norm_scale: nonneg(s.sigma_norm_scale, "sigma_norm_scale", 0.0)?,
-            norm_gate: nonneg(s.norm_gate, "norm_gate", f64::INFINITY)?,
-            lowpass_s: nonneg(s.lowpass_s, "lowpass_s", 0.0)?,
-        }))),
+        "gravity" => {
+            let model = GravityModel {
+                sigma_norm_scale: s.sigma_norm_scale.unwrap_or(0.0),
+                norm_gate: s.norm_gate.unwrap_or(f64::INFINITY),
+                lowpass_s: s.lowpass_s.unwrap_or(0.0),
+            };
+            model.validate(&at(""))?;
+            Ok(Some(SensorModel::Gravity(model)))
+        }
         "field" => {
             let v = s.vertical.unwrap_or([0.0, 0.0, 1.0]);
             let vertical = nalgebra::Vector3::from(v);
@@ -237,15 +231,16 @@ pub(super) fn sensor_model(name: &str, s: &RawSensor) -> Result<Option<SensorMod
                     at("vertical")
                 ));
             }
-            Ok(Some(SensorModel::Field(FieldModel {
-                sigma_norm_scale: nonneg(s.sigma_norm_scale, "sigma_norm_scale", 0.0)?,
-                norm_limit: nonneg(s.norm_limit, "norm_limit", f64::INFINITY)?,
-                dip_limit_rad: nonneg(s.dip_limit_deg, "dip_limit_deg", f64::INFINITY)?
-                    .to_radians(),
-                holdoff_s: nonneg(s.holdoff_s, "holdoff_s", 0.0)?,
+            let model = FieldModel {
+                sigma_norm_scale: s.sigma_norm_scale.unwrap_or(0.0),
+                norm_limit: s.norm_limit.unwrap_or(f64::INFINITY),
+                dip_limit_rad: s.dip_limit_deg.unwrap_or(f64::INFINITY).to_radians(),
+                holdoff_s: s.holdoff_s.unwrap_or(0.0),
                 heading_only: s.heading_only.unwrap_or(false),
                 vertical: vertical / n,
-            })))
+            };
+            model.validate(&at(""))?;
+            Ok(Some(SensorModel::Field(model)))
         }
         other => Err(format!(
             "{} must be \"vector\", \"gravity\" or \"field\", got \"{other}\"",

@@ -10,11 +10,8 @@
 //! never changes by accident.
 
 use super::SavedCounters;
-use crate::ahrs::field::{FieldChannel, HardIronFit, HardIronSolution};
-use crate::ahrs::gravity::GravityChannel;
-use crate::ahrs::lowpass::Lowpass3;
 use crate::ahrs::rest::RestDetector;
-use crate::ahrs::{AhrsCounts, AhrsState, GyroChannel, NoiseMeter, Phase, SensorSheet};
+use crate::ahrs::{AhrsCounts, AhrsState, NoiseMeter, Phase, SensorSheet};
 use crate::attitude::{Grp, Quaternion};
 use crate::filters::qpf::Cloud;
 use crate::filters::sghqf::Points;
@@ -24,7 +21,11 @@ use crate::filters::{
     FilterState, GapModel, GyroErrors, Kernel, MekfState, QpfOptions, QpfState, SghqfState,
     UsqueOptions, UsqueState,
 };
-use crate::sensors::imu::{LowpassState, SensorState};
+use crate::sensors::field::{FieldChannel, HardIronFit, HardIronSolution};
+use crate::sensors::gravity::{GravityChannel, LowpassState};
+use crate::sensors::gyro::GyroChannel;
+use crate::sensors::lowpass::Lowpass3;
+use crate::sensors::model::SensorState;
 use crate::sensors::{
     Aspect, GyroNoise, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 const MAGIC: &[u8; 8] = b"ATTCKPT\0";
-/// 2: a vehicle holds its sensor models' state (`sensors::imu::SensorState`).
+/// 2: a vehicle holds its sensor models' state (`sensors::model::SensorState`).
 /// 3: observations have an `aspect`; a vehicle holds its raw-IMU pipeline (`crate::ahrs::Ahrs`), its
 /// gyro feed and a third stream; filters their gyro error model (`filters::GyroErrors`).
 /// 4: the payload is [`format`]'s own structs, no longer the in-memory object graph (1–3 were bincode

@@ -5,8 +5,9 @@
 //! very value computed: the cache changes no result and is no state (a checkpoint does not hold it; a
 //! restored pipeline computes the same values afresh).
 
-use super::lowpass::gain;
-use super::{AhrsConfig, MagConfig};
+use super::AhrsConfig;
+use crate::sensors::field::FieldGains;
+use crate::sensors::lowpass::gain;
 
 /// Every interval-dependent gain of one sample (see [`IntervalGains::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,31 +15,6 @@ pub struct IntervalGains {
     /// `1 − e^{−Δt/τ}` for the gravity channel's levels (`acc.lowpass_s`).
     pub acc: Option<f64>,
     pub field: FieldGains,
-}
-
-/// The field channel's gains over one interval.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FieldGains {
-    /// `1 − e^{−Δt/τ}` for the low-passed norm and dip (`mag.lowpass_s`), the reference
-    /// (`mag.reference_s`) and the hard-iron fit's recent residual (`hard_iron.recent_s`).
-    pub lowpass: Option<f64>,
-    pub reference: Option<f64>,
-    pub fit_recent: Option<f64>,
-    /// The hard-iron fit's forgetting over the interval, `e^{−Δt/T_w}` (`hard_iron.window_s`).
-    pub fit_forget: f64,
-}
-
-impl FieldGains {
-    /// The gains over `dt_s`.
-    pub fn new(c: &MagConfig, dt_s: f64) -> Self {
-        let dt = dt_s.max(0.0);
-        FieldGains {
-            lowpass: gain(dt, c.lowpass_s),
-            reference: gain(dt, c.reference_s),
-            fit_recent: gain(dt, c.hard_iron.recent_s),
-            fit_forget: (-dt / c.hard_iron.window_s.max(1e-9)).exp(),
-        }
-    }
 }
 
 impl IntervalGains {

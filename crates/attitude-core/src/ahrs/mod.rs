@@ -12,9 +12,9 @@
 //! * **Rest** ([`rest`]): a rest detector; at rest the low-passed gyro is an observation of the gyro
 //!   bias ([`AttitudeFilter::observe_bias`], every `rest.interval_s`), and the accelerometer's
 //!   low-pass is gravity alone.
-//! * **Gravity** ([`gravity`]): the low-passed specific force as a tilt-only observation with a σ that
+//! * **Gravity** ([`crate::sensors::gravity::channel`]): the low-passed specific force as a tilt-only observation with a σ that
 //!   follows the motion and counts its correlation.
-//! * **Field** ([`field`]): the magnetometer as a heading-only observation, with disturbance
+//! * **Field** ([`crate::sensors::field::channel`]): the magnetometer as a heading-only observation, with disturbance
 //!   detection, a bounded rejection, a new field accepted after sustained consistent readings, and a
 //!   body-fixed (hard-iron) offset estimated and accepted when the readings prove it.
 //! * **Honesty** ([`Ahrs::step`]): a variance floor for the tilt and the heading (errors of the sensors
@@ -27,28 +27,22 @@
 //! heading at the alignment). Numeric core: no I/O; every state is plain data (a checkpoint holds it).
 
 mod config;
-pub mod field;
 pub mod gains;
-pub mod gravity;
-pub mod gyro;
-pub mod lowpass;
 pub mod rest;
 pub mod sheet;
 mod state;
 
 use crate::attitude::{skew, Quaternion};
 use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
-use crate::sensors::imu::{heading_basis, heading_jacobian, heading_residual};
+use crate::sensors::field::{dip_rad, FieldChannel, HeadingObservation};
+use crate::sensors::gravity::{GravityChannel, TiltObservation, UP};
+use crate::sensors::gyro::channel::SATURATION_FRACTION;
+use crate::sensors::gyro::{Gap, GyroChannel, GyroConfig};
+use crate::sensors::heading::{heading_basis, heading_jacobian, heading_residual};
 pub use crate::sensors::ImuSample;
 use crate::sensors::VectorObservation;
-pub use config::{
-    AccConfig, AhrsConfig, HardIronConfig, InitConfig, MagConfig, RecoveryConfig, RestConfig,
-};
-use field::{FieldChannel, HeadingObservation};
+pub use config::{AhrsConfig, InitConfig, RecoveryConfig, RestConfig};
 use gains::{GainCache, IntervalGains};
-use gravity::{GravityChannel, TiltObservation};
-use gyro::{Gap, SATURATION_FRACTION};
-pub use gyro::{GyroChannel, GyroConfig};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use rest::RestDetector;
 use sheet::STANDARD_G;
@@ -390,7 +384,7 @@ impl Ahrs {
         let mut heading_moving2 = moving2;
         if let (Some(m), true) = (mag, from_mag.is_some()) {
             let n = m.norm();
-            let dip = crate::sensors::imu::dip_rad(&(m / n), &up_b);
+            let dip = dip_rad(&(m / n), &up_b);
             heading_moving2 *= dip.tan().powi(2).min(100.0);
             self.field = Some(FieldChannel::new(n, dip, &Vector3::y()));
         }
@@ -665,8 +659,8 @@ impl Ahrs {
 fn learn_field(e: &Estimate, mag: &Vector3<f64>) -> Option<FieldChannel> {
     let a = e.q.attitude_matrix();
     let r = (a.transpose() * mag).try_normalize(1e-12)?;
-    let dip = crate::sensors::imu::dip_rad(&r, &gravity::UP);
-    let north = r - gravity::UP * r.dot(&gravity::UP);
+    let dip = dip_rad(&r, &UP);
+    let north = r - UP * r.dot(&UP);
     (north.norm() > 1e-6).then(|| FieldChannel::new(mag.norm(), dip, &north))
 }
 

@@ -4,8 +4,8 @@
 //! every axis (a rate that large is motion, not bias), and every accelerometer sample stays within
 //! `acc_limit` of its low-pass. At rest the low-passed gyro is a direct measurement of the gyro bias.
 
-use super::lowpass::Lowpass3;
 use super::RestConfig;
+use crate::sensors::lowpass::Lowpass3;
 use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]

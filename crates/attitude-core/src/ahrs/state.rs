@@ -1,13 +1,13 @@
 //! The pipeline's state as plain data: what a checkpoint saves and restores (the file format is the
 //! service's `persist` module's; a field added here is a compile error there).
 
-use super::field::FieldChannel;
-use super::gravity::GravityChannel;
-use super::gyro::GyroChannel;
 use super::rest::RestDetector;
 use super::sheet::{NoiseMeter, SensorSheet};
 use super::{Ahrs, AhrsCounts};
 use crate::attitude::Quaternion;
+use crate::sensors::field::FieldChannel;
+use crate::sensors::gravity::GravityChannel;
+use crate::sensors::gyro::GyroChannel;
 use nalgebra::{Matrix3, Vector3};
 
 /// Where the pipeline is: aligning (collecting the first samples) or running.

@@ -5,8 +5,13 @@
 //! (unit vectors with `sigma` in rad, or a magnetic field in nT with `sigma` in nT). Times are seconds of
 //! the sender's clock.
 
+pub mod check;
+pub mod field;
+pub mod gravity;
 pub mod gyro;
-pub mod imu;
+pub mod heading;
+pub mod lowpass;
+pub mod model;
 pub mod vector;
 
 pub use gyro::{GyroNoise, GyroSimulator};

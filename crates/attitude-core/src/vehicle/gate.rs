@@ -34,7 +34,7 @@ impl VehicleState {
         self.gate.get_mut(key).expect("inserted above")
     }
 
-    /// Applies the sensor models (`service.sensors.NAME.kind`, crate::sensors::imu) about `prior`:
+    /// Applies the sensor models (`service.sensors.NAME.kind`, crate::sensors::model) about `prior`:
     /// observations of modelled sensors come out as unit vectors with their adapted σ (heading-only for
     /// a `field` sensor with `heading_only`), or are left out (`norm_gated`, `disturbed`, counted).
     pub(super) fn apply_models(

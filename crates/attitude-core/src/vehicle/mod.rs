@@ -20,7 +20,7 @@ use crate::filters::{
 };
 use crate::rejection::{RejectCode, Rejection};
 use crate::rng::{fnv1a as fnv, FNV_OFFSET};
-use crate::sensors::imu::{SensorState, Verdict};
+use crate::sensors::model::{SensorState, Verdict};
 use crate::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
 };
@@ -31,17 +31,17 @@ use std::sync::Arc;
 
 mod gate;
 mod history;
-mod output;
 pub mod policy;
-mod reset;
+mod published;
+mod restart;
 mod start;
 mod state;
 #[cfg(test)]
 mod tests;
 
 pub use history::{Key, KEPT_PER_LAG};
-pub use output::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};
-pub use reset::{ResetRequest, TakeoverSeed};
+pub use published::{FieldReference, GateCounts, ImuDiagnostics, Published, ResetOutcome};
+pub use restart::{ResetRequest, TakeoverSeed};
 pub use state::{HeldSample, VehicleSnapshot};
 
 /// Attitude 1σ used by a reset that gives `q` without `sigma_deg`.

@@ -3,7 +3,7 @@
 
 use crate::ahrs::{AhrsConfig, SensorSheet};
 use crate::filters::FilterConfig;
-use crate::sensors::imu::SensorModel;
+use crate::sensors::model::SensorModel;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 

@@ -1,12 +1,12 @@
 //! A vehicle's whole state as plain data: what a checkpoint saves and restores. The file format is
 //! the service's (`persist`), converted from and to these types; nothing here knows about bytes.
 
-use super::output::GateCounts;
 use super::policy::VehicleFilterConfig;
+use super::published::GateCounts;
 use super::{Held, JumpCandidate, Key, Seen, Slot, Stream, VehicleState, STREAMS};
 use crate::ahrs::{Ahrs, AhrsState};
 use crate::filters::{Estimate, FilterState};
-use crate::sensors::imu::SensorState;
+use crate::sensors::model::SensorState;
 use crate::sensors::{GyroSample, Measurement};
 use std::collections::BTreeMap;
 

@@ -8,7 +8,7 @@ use super::{
     FilterSpec, FilterState, GyroErrors, InitialState, MekfState,
 };
 use crate::attitude::{skew, Quaternion};
-use crate::sensors::{imu, Aspect, GyroNoise, VectorObservation};
+use crate::sensors::{heading, Aspect, GyroNoise, VectorObservation};
 use nalgebra::{ArrayStorage, Matrix3, Matrix3x6, Matrix6, Vector3, Vector6};
 
 mod kernels;
@@ -145,8 +145,8 @@ pub fn bias_update(
     Some(finish(p, c))
 }
 
-/// One heading-only update (`crate::sensors::imu`): the scalar measurement `y = H δx + v` with
-/// `H = [hᵀ, 0₃]` ([`crate::sensors::imu::heading_jacobian`]; `h·v = 1` for the body-frame vertical `v`,
+/// One heading-only update (`crate::sensors::heading`): the scalar measurement `y = H δx + v` with
+/// `H = [hᵀ, 0₃]` ([`crate::sensors::heading::heading_jacobian`]; `h·v = 1` for the body-frame vertical `v`,
 /// and `h` also holds the leak of a tilt error into the heading, `∝ tan dip`), `R = σ_ψ²`, innovation
 /// `nu`. The attitude part of the Kalman gain is projected on `v` (`K_α ← v vᵀ K_α`) so that the update
 /// turns the estimate about the vertical only, never tilts it, and so is its bias part (`K_β ← v vᵀ K_β`:
@@ -321,15 +321,16 @@ impl FilterCore for Mekf {
             let dalpha = Vector3::new(dx[0], dx[1], dx[2]);
             let c = match &o.aspect {
                 Aspect::Heading(up) => {
-                    // A heading-only observation (crate::sensors::imu): y = −ψ(Â⁻), H = [hᵀ, 0].
-                    let Some((e1, e2, horizontal)) = imu::heading_basis(&o.reference, up) else {
+                    // A heading-only observation (crate::sensors::heading): y = −ψ(Â⁻), H = [hᵀ, 0].
+                    let Some((e1, e2, horizontal)) = heading::heading_basis(&o.reference, up)
+                    else {
                         continue;
                     };
                     let v = a * (up / up.norm());
-                    let h = imu::heading_jacobian(&a, &o.reference, &e2, horizontal);
-                    let y = -imu::heading_residual(&a, &o.body, &e1, &e2);
+                    let h = heading::heading_jacobian(&a, &o.reference, &e2, horizontal);
+                    let y = -heading::heading_residual(&a, &o.body, &e1, &e2);
                     let nu = y - h.dot(&dalpha);
-                    let sigma = imu::heading_sigma_rad(o.sigma, horizontal);
+                    let sigma = heading::heading_sigma_rad(o.sigma, horizontal);
                     dof += 1;
                     kernels::heading(&mut p, &h.into(), &v.into(), sigma, nu).ok_or(singular)?
                 }

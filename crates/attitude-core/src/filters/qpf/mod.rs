@@ -49,7 +49,7 @@ use super::{
 use crate::attitude::{AverageAccumulator, Grp, Quaternion};
 use crate::rng::Xoshiro256PlusPlus;
 use crate::sensors::gyro::normal3;
-use crate::sensors::{imu, Aspect, GyroNoise, VectorObservation};
+use crate::sensors::{heading, Aspect, GyroNoise, VectorObservation};
 use crate::simd::Isa;
 use kernels::{Average, Local, Moments};
 use nalgebra::{Matrix3, Matrix4, Matrix6, Vector3, Vector6};

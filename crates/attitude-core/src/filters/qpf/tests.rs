@@ -115,9 +115,9 @@ fn direct(q: &Quaternion, obs: &[VectorObservation]) -> f64 {
         .map(|o| match o.aspect.heading_axis() {
             None => -0.5 * (o.body - a * o.reference).norm_squared() / (o.sigma * o.sigma),
             Some(up) => {
-                let (e1, e2, h) = imu::heading_basis(&o.reference, up).unwrap();
-                let psi = imu::heading_residual(&a, &o.body, &e1, &e2);
-                let s = imu::heading_sigma_rad(o.sigma, h);
+                let (e1, e2, h) = heading::heading_basis(&o.reference, up).unwrap();
+                let psi = heading::heading_residual(&a, &o.body, &e1, &e2);
+                let s = heading::heading_sigma_rad(o.sigma, h);
                 -0.5 * psi * psi / (s * s)
             }
         })

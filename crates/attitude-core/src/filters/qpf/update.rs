@@ -93,10 +93,11 @@ impl Qpf {
                     t.c -= 0.5 * a * (b.norm_squared() + o.reference.norm_squared());
                 }
                 Some(up) => {
-                    let Some((e1, e2, horizontal)) = imu::heading_basis(&o.reference, up) else {
+                    let Some((e1, e2, horizontal)) = heading::heading_basis(&o.reference, up)
+                    else {
                         continue;
                     };
-                    let s = imu::heading_sigma_rad(o.sigma, horizontal);
+                    let s = heading::heading_sigma_rad(o.sigma, horizontal);
                     // ψ = atan2(b·(A e₂), b·(A e₁)): each a quadratic form in q.
                     self.heading_terms.push(kernels::Heading {
                         k1: quadratic_coefficients(&davenport(b, &e1, 1.0)),

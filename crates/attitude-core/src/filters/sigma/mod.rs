@@ -343,7 +343,7 @@ impl<R: PointRule> SigmaFilter<R> {
 }
 
 /// The observations as full vectors: the sigma-point filters have no scalar update, so a heading- or
-/// tilt-only observation is used with its full-direction likelihood (crate::sensors::imu; a heading
+/// tilt-only observation is used with its full-direction likelihood (crate::sensors::heading; a heading
 /// may tilt the estimate). Borrowed when every observation is full already.
 fn full_vectors(observations: &[VectorObservation]) -> Cow<'_, [VectorObservation]> {
     if observations.iter().all(|o| o.aspect == Aspect::Full) {

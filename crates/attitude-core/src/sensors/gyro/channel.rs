@@ -29,6 +29,7 @@
 //!   `gap_turn_factor² · σ_ω² T · min(T, 2τ_c)` per axis (the decaying model's own variance is far
 //!   smaller over half a swing, and a gap in a shake was then 3σ off).
 
+use crate::sensors::check::non_negative;
 use nalgebra::Vector3;
 
 /// The gyro's settings (`service.imu.gyro`).
@@ -62,17 +63,10 @@ impl Default for GyroConfig {
 
 impl GyroConfig {
     pub fn validate(&self) -> Result<(), String> {
-        for (v, name) in [
-            (self.change_factor, "gyro.change_factor"),
-            (self.range_rad_s, "gyro.range_rad_s"),
-            (self.saturation_factor, "gyro.saturation_factor"),
-            (self.gap_turn_factor, "gyro.gap_turn_factor"),
-        ] {
-            if !(v >= 0.0 && v.is_finite()) {
-                return Err(format!("{name} must be finite and non-negative, got {v}"));
-            }
-        }
-        Ok(())
+        non_negative(self.change_factor, "gyro.change_factor")?;
+        non_negative(self.range_rad_s, "gyro.range_rad_s")?;
+        non_negative(self.saturation_factor, "gyro.saturation_factor")?;
+        non_negative(self.gap_turn_factor, "gyro.gap_turn_factor")
     }
 }
 

@@ -2,7 +2,7 @@
 //! slow and correlated.
 //!
 //! The specific force is low-passed (`τ_a`, second-order Butterworth) in a frame that turns with the
-//! gyro only (the gyro frame of [`super::Ahrs`]; Laidig & Seel's VQF does the same), so gravity stays
+//! gyro only (the gyro frame of `crate::ahrs::Ahrs`; Laidig & Seel's VQF does the same), so gravity stays
 //! while the accelerations of a vehicle that moves back and forth average out, and no correction of the
 //! filter ever feeds back into the measurement. What does not average out is the motion the low-pass
 //! lets through. The channel measures it from the data itself: a second low-pass with twice the time
@@ -18,13 +18,10 @@
 //! `σ = σ_lp √(T_c / T_u)`, so the filter counts the information of one independent observation per
 //! `T_c`, not of every sample: this is what keeps the published tilt covariance honest.
 
-use super::lowpass::{first_order_by, gain, Lowpass3};
-use super::AccConfig;
+use super::{norm_deviation, passes_norm_gate, AccConfig, UP};
+use crate::sensors::lowpass::{first_order_by, gain, Lowpass3};
 use crate::sensors::{Aspect, VectorObservation};
 use nalgebra::{Matrix3, Vector3};
-
-/// The reference-frame vertical (East-North-Up).
-pub const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 1.0);
 
 /// What the channel makes of the moment.
 #[derive(Clone, Debug, PartialEq)]
@@ -81,7 +78,7 @@ impl GravityChannel {
     }
 
     /// [`GravityChannel::update`] with the gain `1 − e^{−Δt/τ_a}` of its levels given
-    /// ([`super::gains`]). Returns what [`GravityChannel::up_gyro`] returns now.
+    /// (`crate::ahrs::gains`). Returns what [`GravityChannel::up_gyro`] returns now.
     #[inline]
     pub fn update_by(
         &mut self,
@@ -177,7 +174,7 @@ impl GravityChannel {
         let Some(body) = (a_gyro * lp).try_normalize(1e-12) else {
             return TiltObservation::NotDue;
         };
-        if !((lp.norm() / self.g0 - 1.0).abs() <= c.norm_gate) {
+        if !passes_norm_gate(norm_deviation(lp.norm(), self.g0), c.norm_gate) {
             return TiltObservation::NormGated;
         }
         let bias_var = bias_across(&body).max(0.0) * self.lp.tau_s * self.lp.tau_s;
