@@ -513,13 +513,12 @@ impl Ahrs {
         // Tilt.
         // The low-pass lives in the gyro frame, which the bias estimate turns: while the bias is
         // unsure (a start in motion, before it is learned) its variance across the vertical enters
-        // the reading (`GravityChannel::observation`). Read only when a reading is due.
+        // the reading (`GravityChannel::observation`). Read only when a reading is due, and the
+        // estimate it is read from is the update's prior (a particle filter's costs a pass).
+        let mut estimate = None;
         let bias_across = |up: &Vector3<f64>| {
-            let pb: Matrix3<f64> = filter
-                .estimate()
-                .covariance
-                .fixed_view::<3, 3>(3, 3)
-                .into_owned();
+            let e = estimate.insert(filter.estimate());
+            let pb: Matrix3<f64> = e.covariance.fixed_view::<3, 3>(3, 3).into_owned();
             (pb.trace() - (up.transpose() * pb * up)[0]) * 0.5
         };
         match self
@@ -530,7 +529,7 @@ impl Ahrs {
             TiltObservation::NormGated => self.counts.tilt_gated += 1,
             TiltObservation::Use(o) => {
                 self.counts.tilt_sigma_lp_rad = self.gravity.last_sigma_lp();
-                let prior = filter.estimate();
+                let prior = estimate.unwrap_or_else(|| filter.estimate());
                 // Consistency of the low-passed direction itself (its own σ, not the σ that spreads
                 // its information over the correlation time).
                 let nis = tilt_nis(&prior, &o, self.gravity.last_sigma_lp());
