@@ -162,6 +162,19 @@ pub fn parse(text: &str, origin: &str) -> Result<FileConfig, ConfigError> {
     parse_with(text, origin, &[])
 }
 
+/// A configuration text as its values, before any check: the JSON5 parsed and its `extends` chain
+/// (config/README.md) resolved, the base files under this one's values.
+pub fn resolve(text: &str, origin: &str) -> Result<serde_json::Value, ConfigError> {
+    let value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
+        path: origin.to_string(),
+        message: e.to_string(),
+    })?;
+    extends::resolve(value, origin, &extends::read_file).map_err(|message| ConfigError::Invalid {
+        path: origin.to_string(),
+        message,
+    })
+}
+
 /// [`parse`] with values replaced before validation: `("service.imu.acc.sigma_rad", 0.004)` sets that
 /// field (creating the objects on its path), as if the file said so (studies and tuning).
 pub fn parse_with(
@@ -169,16 +182,11 @@ pub fn parse_with(
     origin: &str,
     overrides: &[(String, serde_json::Value)],
 ) -> Result<FileConfig, ConfigError> {
-    let value: serde_json::Value = json5::from_str(text).map_err(|e| ConfigError::Syntax {
-        path: origin.to_string(),
-        message: e.to_string(),
-    })?;
     let invalid = |message: String| ConfigError::Invalid {
         path: origin.to_string(),
         message,
     };
-    // `extends` (config/README.md): the base files under this one's values.
-    let mut value = extends::resolve(value, origin, &extends::read_file).map_err(invalid)?;
+    let mut value = resolve(text, origin)?;
     for (path, v) in overrides {
         let mut at = &mut value;
         for key in path.split('.') {

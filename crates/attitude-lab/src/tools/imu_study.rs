@@ -837,18 +837,14 @@ impl<'a> Tuner<'a> {
 /// over the built-in defaults (`config/default.json5`), so an option the file does not state has the
 /// value it takes (a preset states only what it changes).
 pub fn effective_config(path: &Path) -> Result<serde_json::Value, StudyError> {
-    let origin = path.display().to_string();
-    let read = |p: &Path| -> Result<serde_json::Value, StudyError> {
-        let text = std::fs::read_to_string(p).map_err(|e| StudyError::Io {
-            path: p.display().to_string(),
-            message: e.to_string(),
-        })?;
-        json5::from_str(&text).map_err(|e| StudyError::Config(format!("{}: {e}", p.display())))
-    };
-    let file =
-        extends::resolve(read(path)?, &origin, &extends::read_file).map_err(StudyError::Config)?;
-    let defaults: serde_json::Value = json5::from_str(DEFAULT_CONFIG)
-        .map_err(|e| StudyError::Config(format!("built-in defaults: {e}")))?;
+    let text = std::fs::read_to_string(path).map_err(|e| StudyError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let invalid = |e: config::ConfigError| StudyError::Config(e.to_string());
+    let file = config::resolve(&text, &path.display().to_string()).map_err(invalid)?;
+    let defaults =
+        config::resolve(DEFAULT_CONFIG, "built-in default configuration").map_err(invalid)?;
     Ok(extends::merge(defaults, file))
 }
 
@@ -856,11 +852,10 @@ pub fn effective_config(path: &Path) -> Result<serde_json::Value, StudyError> {
 /// configuration gives it (`config`: the file with its `extends` resolved, laid over the built-in
 /// defaults, [`effective_config`]), else the first.
 pub fn start_point(spec: &TuneSpec, config: &serde_json::Value) -> Vec<usize> {
-    let value = config;
     spec.parameters
         .iter()
         .map(|p| {
-            let mut at = value;
+            let mut at = config;
             for key in p.path.split('.') {
                 at = &at[key];
             }
