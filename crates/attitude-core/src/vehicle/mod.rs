@@ -100,6 +100,25 @@ enum Slot {
     Tracking(Box<dyn AttitudeFilter>),
 }
 
+/// The reorder window's limits at one moment ([`VehicleState::releasable`]).
+#[derive(Clone, Copy)]
+struct Releasable {
+    window: f64,
+    /// Every stream seen has reached this time (−∞ while a stream may still start earlier).
+    watermark: f64,
+    newest: f64,
+}
+
+impl Releasable {
+    /// A sample of time `t_s` held since `held_at_s` may go at wall time `now_s`.
+    fn ready(&self, t_s: f64, held_at_s: f64, now_s: f64) -> bool {
+        self.window <= 0.0
+            || t_s <= self.watermark + SAME_INSTANT_S
+            || t_s <= self.newest - self.window
+            || now_s - held_at_s >= self.window
+    }
+}
+
 /// A sample in the reorder window.
 struct Held {
     key: Key,
@@ -453,9 +472,15 @@ impl VehicleState {
         let stream = stream_of(&m);
         let t = m.t_s();
         let seen = Seen::of(&m);
-        let same = self.recent[stream as usize]
-            .iter()
-            .find(|(rt, _)| (rt - t).abs() <= SAME_INSTANT_S);
+        // (A sample after the newest of its stream cannot repeat one: the scan is skipped.)
+        let in_order = self.newest[stream as usize].is_some_and(|n| t > n + SAME_INSTANT_S);
+        let same = if in_order {
+            None
+        } else {
+            self.recent[stream as usize]
+                .iter()
+                .find(|(rt, _)| (rt - t).abs() <= SAME_INSTANT_S)
+        };
         match (stream, same) {
             (Stream::Imu, Some((_, rfp))) => {
                 return Err(Rejection::new(
@@ -560,6 +585,12 @@ impl VehicleState {
             self.replay(rewind, m, policy, out);
             return Ok(());
         }
+        if self.held.is_empty() && self.releasable(policy).ready(t, now_s, now_s) {
+            // In order with nothing waiting: the window would take the sample and give it back at
+            // once (the common case of one in-order stream), so it goes straight through.
+            self.step(m, false, policy, out);
+            return Ok(());
+        }
         let at = self.held.partition_point(|h| h.key <= key);
         self.held.insert(
             at,
@@ -585,6 +616,20 @@ impl VehicleState {
     }
 
     fn release(&mut self, now_s: f64, policy: &Policy, all: bool, out: &mut Vec<Event>) {
+        let limits = self.releasable(policy);
+        while let Some(first) = self.held.front() {
+            if !(all || limits.ready(first.key.t_s, first.held_at_s, now_s)) {
+                break;
+            }
+            let Some(h) = self.held.pop_front() else {
+                break;
+            };
+            self.step(h.m, false, policy, out);
+        }
+    }
+
+    /// What the reorder window releases now ([`Releasable::ready`]).
+    fn releasable(&self, policy: &Policy) -> Releasable {
         let window = policy.reorder_window_s;
         // Every stream seen has reached this time: nothing older can still come (each stream is in
         // order on its own key). During the vehicle's first window a stream not seen yet may still
@@ -611,20 +656,10 @@ impl VehicleState {
                 .reduce(f64::min)
                 .unwrap_or(f64::NEG_INFINITY)
         };
-        while let Some(first) = self.held.front() {
-            let t = first.key.t_s;
-            let ready = all
-                || window <= 0.0
-                || t <= watermark + SAME_INSTANT_S
-                || t <= newest - window
-                || now_s - first.held_at_s >= window;
-            if !ready {
-                break;
-            }
-            let Some(h) = self.held.pop_front() else {
-                break;
-            };
-            self.step(h.m, false, policy, out);
+        Releasable {
+            window,
+            watermark,
+            newest,
         }
     }
 
