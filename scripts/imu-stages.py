@@ -74,7 +74,10 @@ def counts(example: str, trial: str, config: str, keep: str | None) -> tuple[dic
             # (callgrind_annotate lists a function once per file its code came from; the largest
             # inclusive count is the function's.)
             hits = [int(l.split()[0].replace(",", "")) for l in lines if re.search(p, l)]
-            total += max(hits, default=0)
+            if not hits:
+                # (A function renamed or inlined away: a stage counted as 0 would mislead.)
+                sys.exit(f"{example}: no function matches {p!r} in the profile; update STAGES")
+            total += max(hits)
         got[stage] = total / n
     return got, n
 

@@ -532,8 +532,9 @@ fn a_gap_in_the_samples_is_told_once_and_counted() {
 }
 
 /// One in-order stream goes straight through the reorder window once its first window is over
-/// (nothing held, no wait for the window's time), and the arrival check still refuses a repeat of its newest sample and a second
-/// sample of that instant, changing nothing; an older sample within the lag is still fused.
+/// (nothing held, no wait for the window's time); the arrival check still refuses a repeat of its
+/// newest sample and a second sample of that instant, changing nothing, and a sample older than the
+/// newest but new to the vehicle (within the lag) is still fused.
 #[test]
 fn an_in_order_stream_passes_the_window_and_repeats_are_still_refused() {
     let ms = imu_samples(3.0);
@@ -566,4 +567,16 @@ fn an_in_order_stream_passes_the_window_and_repeats_are_still_refused() {
         assert!(out.is_empty());
     }
     assert_eq!((v.estimate(), v.seq(), v.history_bytes()), before);
+    // Between two samples of half a second ago: no duplicate, replayed into its place.
+    let Measurement::Imu(mut late) = ms[ms.len() - 51].clone() else {
+        unreachable!()
+    };
+    late.t_s += 0.005;
+    let mut out = Vec::new();
+    v.on_measurement(Measurement::Imu(late), 10.0, &p, &mut out)
+        .unwrap();
+    assert_eq!(v.late_fused(), 1);
+    assert!(out
+        .iter()
+        .any(|e| matches!(e, Event::Estimate(p) if p.replayed)));
 }
