@@ -149,15 +149,35 @@ pub fn cyclonedds_uri(plugin: &Value, env: &dyn Fn(&str) -> Option<String>) -> O
 /// own zenoh id: `bridge` is another) makes a DDS writer of the topic, so ROS 2 nodes see the topic
 /// and its publisher (the bridge's node) before any sample, and receive the samples put on `key`.
 /// The QoS chunk is `<keyless>:<reliability>:<durability>:<history>,<depth>:<user data>` in DDS'
-/// numbers: reliable (1), volatile (0), keep-last (0) 10, the type hash in the user data as ROS 2's
-/// DDS layers put it (`typehash=RIHS01_...;`).
-pub fn publisher_announcement(bridge: &str, key: &str, ros_type: &str, hash: &str) -> String {
+/// numbers: reliable (1), volatile (0), keep-last (0) `depth`, the type hash in the user data as ROS
+/// 2's DDS layers put it (`typehash=RIHS01_...;`).
+pub fn publisher_announcement(
+    bridge: &str,
+    key: &str,
+    ros_type: &str,
+    hash: &str,
+    depth: u32,
+) -> String {
     format!(
-        "@/{bridge}/@ros2_lv/MP/{}/{}/:1:0:0,10:typehash={hash};",
+        "@/{bridge}/@ros2_lv/MP/{}/{}/:1:0:0,{depth}:typehash={hash};",
         key.replace('/', "§"),
         ros_type.replace('/', "§")
     )
 }
+
+/// The history of a vehicle's orientation writer on DDS. A reliable keep-last writer (Cyclone DDS'
+/// included) drops a sample its reader has not acknowledged once `depth` newer ones are written, so a
+/// subscriber whose socket overflowed while its process was starved of CPU (a burst of estimates
+/// after a batch of samples) lost every sample it asked again for beyond the 10 of ROS' default
+/// (18 in a row, reproduced with the reader's process sharing its core with a busy loop). 64 gives
+/// the reader six times that, while the unacknowledged bytes (64 × ~330 B of sensor_msgs/Imu) stay
+/// under Cyclone's initial high-water mark (30 kB), above which a write would block the service's
+/// put. History depth is not matched between writer and reader: every subscriber still matches.
+pub const ORIENTATION_DEPTH: u32 = 64;
+
+/// The history of the /diagnostics writer: ROS' default. One DiagnosticArray holds a status per
+/// vehicle (large for a fleet) and the next one supersedes it.
+pub const DIAGNOSTICS_DEPTH: u32 = 10;
 
 /// The bridge id of the service's announcements: its zenoh id with a suffix (the plugin in the same
 /// runtime ignores announcements under its own zenoh id, which is the service's).
@@ -277,9 +297,10 @@ mod tests {
                 "z1",
                 "robots/r1/imu/data",
                 "sensor_msgs/msg/Imu",
-                "RIHS01_ab"
+                "RIHS01_ab",
+                ORIENTATION_DEPTH
             ),
-            "@/z1/@ros2_lv/MP/robots§r1§imu§data/sensor_msgs§msg§Imu/:1:0:0,10:typehash=RIHS01_ab;"
+            "@/z1/@ros2_lv/MP/robots§r1§imu§data/sensor_msgs§msg§Imu/:1:0:0,64:typehash=RIHS01_ab;"
         );
     }
 

@@ -311,6 +311,7 @@ async fn graph(
                 d.key.as_str(),
                 RosType::DiagnosticArray.name(),
                 &diag_hash,
+                super::dds::DIAGNOSTICS_DEPTH,
             ))
             .await,
         );
@@ -359,6 +360,7 @@ async fn graph(
                         &key,
                         RosType::Imu.name(),
                         &RosType::Imu.hash(),
+                        super::dds::ORIENTATION_DEPTH,
                     );
                     tokens.extend(declare(token).await);
                     if let Some(reset) = &c.reset_service {

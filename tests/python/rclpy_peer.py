@@ -163,12 +163,13 @@ def _drive(args) -> None:
         ):
             raise SystemExit("discovery did not complete within 30 s")
         rate, first = trial["rate_hz"], trial["first_sample"]
-        for start in range(lo, hi, 50):
-            for i in range(start, min(start + 50, hi)):
+        # Within the orientation writer's history (test_ros2_dds.drive).
+        for start in range(lo, hi, 25):
+            for i in range(start, min(start + 25, hi)):
                 t = float(trial["t"][i])
                 mag.publish(mag_msg(t, trial["mag"][i] * 1e-6, frame=f"{v}_imu"))
                 imu.publish(imu_msg(t, trial["gyr"][i], trial["acc"][i], frame=f"{v}_imu"))
-            wait_for(lambda start=start: len(out) >= start - lo - 300, 30, interval=0.002)
+            wait_for(lambda start=start: len(out) >= start - lo - 32, 30, interval=0.002)
         wait_for(lambda: len(out) >= hi - lo, 30)
         time.sleep(0.2)
         indices = [int(round(seconds(m.header.stamp) * rate)) - first for _, m in out]

@@ -270,11 +270,12 @@ def test_bridge_key_format():
     assert abs(m.angular_velocity.z - 0.1) < 0.02 and m.linear_acceleration.z == 9.81
     assert not [k for k in tokens if k.startswith("@ros2_lv/") and "attitude_service" in k], "no rmw_zenoh graph"
     # The bridge's announcements instead (zenoh-plugin-ros2dds' liveliness_mgt.rs), so that a bridge makes the
-    # outputs' DDS writers: the vehicle's /robots/b1/imu/data and /diagnostics, reliable, volatile, keep-last 10.
+    # outputs' DDS writers: the vehicle's /robots/b1/imu/data and /diagnostics, reliable, volatile, keep-last 64 and
+    # 10 (src/ros2/dds.rs: ORIENTATION_DEPTH, DIAGNOSTICS_DEPTH).
     imu_hash, diag_hash = rp.type_hash(IMU), rp.type_hash(DIAG)
     announced = {k.split("/", 2)[2] for k in bridge_tokens if "/@ros2_lv/MP/" in k}
     assert announced == {
-        f"@ros2_lv/MP/robots§b1§imu§data/sensor_msgs§msg§Imu/:1:0:0,10:typehash={imu_hash};",
+        f"@ros2_lv/MP/robots§b1§imu§data/sensor_msgs§msg§Imu/:1:0:0,64:typehash={imu_hash};",
         f"@ros2_lv/MP/diagnostics/diagnostic_msgs§msg§DiagnosticArray/:1:0:0,10:typehash={diag_hash};",
     }, bridge_tokens
 

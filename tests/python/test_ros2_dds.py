@@ -121,9 +121,16 @@ class Driver:
         self.node.close()
 
 
-def drive(drivers: dict[str, Driver], streams: dict, t0: dict, lo: int = 0, chunk: int = 50, window: int = 300):
+#: The history of the service's orientation writers (src/ros2/dds.rs, ORIENTATION_DEPTH; vendor/README.md).
+WRITER_DEPTH = 64
+
+
+def drive(drivers: dict[str, Driver], streams: dict, t0: dict, lo: int = 0, chunk: int = 25, window: int = 32):
     """Sends samples lo.. of each stream in chunks, keeping within `window` samples of the orientations received
-    (as a driver at its sensor's rate would, faster), then waits for the last ones."""
+    (as a driver at its sensor's rate would, faster), then waits for the last ones. chunk + window stays below the
+    orientation writer's history: a reliable subscriber further behind than that may lose orientations whose
+    packets its socket dropped (DDS' keep-last; docs/ros2.md, "QoS"), as a starved CI machine showed."""
+    assert chunk + window < WRITER_DEPTH
     n = max(len(s["gyr"]) for s in streams.values())
     for start in range(lo, n, chunk):
         for v, d in drivers.items():
@@ -140,6 +147,20 @@ def drive(drivers: dict[str, Driver], streams: dict, t0: dict, lo: int = 0, chun
             time.sleep(0.3)
             if len(d.out) == n_now:
                 break
+
+
+def lost(endpoint: str, logpath, vehicle: str, s: dict, idx: list) -> str:
+    """What a failed completeness check reports: the samples without an orientation, what the service counted for
+    the vehicle (received < sent: lost on the DDS input, before the service; gaps: the holes it saw and bridged) and
+    the warnings in its log (the plugin's failed DDS writes: lost on the output)."""
+    missing = sorted(set(range(len(s["gyr"]))) - set(idx))
+    client = AttitudeClient(endpoint, prefix="attitude")
+    try:
+        row = next((r for r in client.vehicles(timeout=5) if r["vehicle"] == vehicle), None)
+    finally:
+        client.close()
+    warnings = [line for line in logpath.read_text(errors="replace").splitlines() if "WARN" in line or "ERROR" in line]
+    return f"{len(idx)} orientations, missing {missing[:40]} ({len(missing)}); the service's row: {row}; log: {warnings[-10:]}"
 
 
 def scores_of(s: dict, t0: float, out: list) -> tuple[dict, np.ndarray]:
@@ -261,8 +282,26 @@ def test_graph_as_rclpy_sees_it(dds_service):
         assert len(info) == 1, [(i.node_name, i.node_namespace) for i in info]
         assert info[0].qos_profile.reliability == rcl.ReliabilityPolicy.RELIABLE, info[0].qos_profile
         assert info[0].topic_type == "sensor_msgs/msg/Imu"
+        # Its history, the samples it can send again to a reader that missed them: 64, though this subscriber came
+        # before the vehicle and Fast DDS does not say its reader's history (the writer was keep-last 1 then).
+        q = info[0].qos_profile
+        assert (q.history, q.depth) == (rcl.HistoryPolicy.KEEP_LAST, WRITER_DEPTH), q
     finally:
         d.close()
+    # A vehicle whose samples came before any subscriber: its orientation writer is the service's announcement's,
+    # the same history.
+    node = rcl.Node("driver_g2", DOMAIN)
+    try:
+        imu = node.publisher(Imu, "/g2/imu/data_raw", rcl.RELIABLE_10)
+        assert rcl.wait_for(lambda: imu.get_subscription_count() > 0, 20), logpath.read_text()
+        for i in range(60):
+            imu.publish(rcl.imu_msg(i * 0.01, np.zeros(3), np.array([0.0, 0.0, 9.81])))
+        assert rcl.wait_for(lambda: len(probe.node.get_publishers_info_by_topic("/g2/imu/data")) == 1, 20)
+        q = probe.node.get_publishers_info_by_topic("/g2/imu/data")[0].qos_profile
+        assert (q.history, q.depth, q.reliability) == (rcl.HistoryPolicy.KEEP_LAST, WRITER_DEPTH,
+                                                       rcl.ReliabilityPolicy.RELIABLE), q
+    finally:
+        node.close()
 
 
 def test_a_late_node_and_a_restarting_one(dds_service):
@@ -276,7 +315,7 @@ def test_a_late_node_and_a_restarting_one(dds_service):
         assert rcl.wait_for(late.matched, 20), logpath.read_text()
         drive({"late1": late}, {"late1": s}, {"late1": 0.0})
         idx = [index_of(s, 0.0, m) for _, m in late.out]
-        assert idx == list(range(idx[0], len(s["gyr"]))) and idx[0] <= ALIGNING, (len(idx), idx[:3])
+        assert idx == list(range(idx[0], len(s["gyr"]))) and idx[0] <= ALIGNING, lost(endpoint, logpath, "late1", s, idx)
     finally:
         late.close()
     half = 1500

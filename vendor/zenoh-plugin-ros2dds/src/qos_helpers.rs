@@ -13,6 +13,11 @@
 //
 use cyclors::{qos::*, DDS_LENGTH_UNLIMITED};
 
+/// The history depth of a writer made for a volatile reader whose history discovery did not give
+/// (attitude-service's change): as attitude-service's own announcements (`src/ros2/dds.rs`,
+/// `ORIENTATION_DEPTH`), so a vehicle's orientation writer is the same whichever side came first.
+pub const WRITER_DEPTH_UNKNOWN_READER: i32 = 64;
+
 pub fn get_history_or_default(qos: &Qos) -> History {
     match &qos.history {
         None => History::default(),
@@ -103,6 +108,18 @@ pub fn adapt_reader_qos_for_writer(qos: &Qos) -> Qos {
             max_samples_per_instance: DDS_LENGTH_UNLIMITED,
         });
     }
+    // attitude-service's change (vendor/README.md): RTPS discovery need not carry a reader's
+    // history, and Fast DDS does not send it. The writer then had Cyclone's default, keep-last 1,
+    // which drops every sample not yet acknowledged but the newest: a reliable Fast DDS reader that
+    // missed packets (its process starved of CPU, its socket full) could not have them sent again.
+    // A volatile reader without a history gets a keep-last writer of WRITER_DEPTH_UNKNOWN_READER.
+    if writer_qos.history.is_none() && !is_transient_local(qos) {
+        writer_qos.history = Some(History {
+            kind: HistoryKind::KEEP_LAST,
+            depth: WRITER_DEPTH_UNKNOWN_READER,
+        });
+    }
+
     // Workaround for the DDS Writer to correctly match with a FastRTPS Reader
     writer_qos.reliability = match writer_qos.reliability {
         Some(mut reliability) => {
