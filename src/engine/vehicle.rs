@@ -26,6 +26,11 @@ pub trait EstimateOutlet: Send + Sync {
     fn wanted(&self) -> bool;
     /// Puts one serialised estimate.
     fn put(&self, payload: Vec<u8>);
+    /// Whether the puts go through a publisher declared for this vehicle alone (a fast one:
+    /// `service::outlets`).
+    fn own_publisher(&self) -> bool {
+        false
+    }
 }
 
 /// Makes the outlet of a vehicle from its estimate key `P/V/estimate`, once per vehicle, when the

@@ -404,3 +404,58 @@ fn the_default_configuration_file_loads_and_matches_the_built_in_defaults() {
         assert!(parse(bad, "test").is_err(), "{bad} accepted");
     }
 }
+
+/// A vehicle whose estimates come fast (raw IMU samples, an estimate each) gets a publisher of its
+/// own after its first 256 estimates (`service::outlets`): across that switch a subscriber gets
+/// every estimate once, in order (`seq` 1, 2, 3, … without a gap), on the vehicle's key.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_fast_vehicle_switches_to_its_own_publisher_without_losing_an_estimate() {
+    use attitude_service::tools::synthetic::imu_sample;
+    use attitude_service::wire::ImuMsg;
+    let text = std::fs::read_to_string(repo().join("config/imu.json5")).unwrap();
+    let h = Harness::start(service_config(&text)).await;
+    let got: Arc<Mutex<Vec<(String, u64)>>> = Arc::default();
+    let g2 = got.clone();
+    let _sub = h
+        .client
+        .declare_subscriber("attitude/*/estimate")
+        .callback(move |s| {
+            let e: EstimateMsg = serde_json::from_slice(&s.payload().to_bytes()).unwrap();
+            g2.lock().unwrap().push((s.key_expr().to_string(), e.seq));
+        })
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let samples: Vec<ImuMsg> = (0..1200).map(|k| imu_sample(k as f64 / 200.0, 3)).collect();
+    for batch in samples.chunks(100) {
+        h.put("attitude/fast/imu", &batch).await;
+    }
+    async fn info(h: &Harness) -> Option<VehicleInfoMsg> {
+        h.get::<Vec<VehicleInfoMsg>>("attitude/@/vehicles")
+            .await
+            .ok()
+            .and_then(|v| v.into_iter().find(|i| i.vehicle == "fast"))
+    }
+    let hr = &h;
+    wait_until_async(
+        "every sample processed",
+        Duration::from_secs(20),
+        || async move { info(hr).await.is_some_and(|i| i.processed == 1200) },
+    )
+    .await
+    .unwrap();
+    let published = info(&h).await.unwrap().estimates;
+    let g3 = got.clone();
+    wait_until_async("every estimate received", Duration::from_secs(10), || {
+        let n = g3.lock().unwrap().len() as u64;
+        async move { n >= published }
+    })
+    .await
+    .unwrap_or_else(|e| panic!("{e}: {} of {published}", got.lock().unwrap().len()));
+    let got = got.lock().unwrap().clone();
+    assert!(published > 800, "{published} estimates");
+    assert!(got.iter().all(|(k, _)| k == "attitude/fast/estimate"));
+    let seqs: Vec<u64> = got.iter().map(|(_, s)| *s).collect();
+    assert_eq!(seqs, (1..=published).collect::<Vec<_>>());
+    h.stop().await;
+}
