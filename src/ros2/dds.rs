@@ -168,11 +168,12 @@ pub fn publisher_announcement(
 /// The history of a vehicle's orientation writer on DDS. A reliable keep-last writer (Cyclone DDS'
 /// included) drops a sample its reader has not acknowledged once `depth` newer ones are written, so a
 /// subscriber whose socket overflowed while its process was starved of CPU (a burst of estimates
-/// after a batch of samples) lost every sample it asked again for beyond the 10 of ROS' default
-/// (18 in a row, reproduced with the reader's process sharing its core with a busy loop). 64 gives
-/// the reader six times that, while the unacknowledged bytes (64 × ~330 B of sensor_msgs/Imu) stay
-/// under Cyclone's initial high-water mark (30 kB), above which a write would block the service's
-/// put. History depth is not matched between writer and reader: every subscriber still matches.
+/// after a batch of samples) cannot have again what is older than that (with the plugin's writer of
+/// depth 1, runs of up to 19 lost: vendor/README.md). 64 is six times ROS' default of 10, while the
+/// unacknowledged bytes (64 × ~330 B of sensor_msgs/Imu) stay under Cyclone's initial high-water mark
+/// (30 kB), above which a write would block the service's put. History depth is not matched between
+/// writer and reader: every subscriber still matches. The plugin's writer for a Fast DDS subscriber
+/// that came first has the same depth (vendor/README.md).
 pub const ORIENTATION_DEPTH: u32 = 64;
 
 /// The history of the /diagnostics writer: ROS' default. One DiagnosticArray holds a status per
