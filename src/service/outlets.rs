@@ -5,7 +5,7 @@ use super::{zerr, ServiceError};
 use crate::engine::{EstimateOutlet, Outlets, Sink};
 use crate::wire::keys::{Keys, Leaf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
@@ -75,6 +75,13 @@ const MAX_DECLARED: usize = 64;
 /// vehicles that publish fast (at least `DECLARE_MIN_RATE_HZ` over their first `DECLARE_AFTER_PUTS`
 /// estimates: raw IMU streams) get a publisher of their own, at most `MAX_DECLARED` of them, and
 /// the rest put on the session. Puts block under congestion rather than drop.
+///
+/// Every vehicle's keys (its estimate key and its plain input keys) are declared as key expressions
+/// ([`KeyDeclarer`]): zenoh keeps a route for a declared key, so neither a put of its estimates nor
+/// an arrival of its inputs computes one (that computation, matching the key against every
+/// declaration, was a fifth of the service's CPU under 1000 MEKF vehicles at 10 Hz: BENCHMARKS.md,
+/// issue 30). Unlike a publisher, a declared key expression subscribes to nothing, so a thousand of
+/// them leave the other keys' routing as it was.
 pub async fn estimate_outlets(
     session: &zenoh::Session,
     keys: &Keys,
@@ -82,6 +89,8 @@ pub async fn estimate_outlets(
     struct Vehicle {
         session: zenoh::Session,
         key: KeyExpr<'static>,
+        /// The keys once declared (the estimate key is put on then).
+        keyed: Arc<DeclaredKeys>,
         anyone: Arc<AtomicBool>,
         declared: Arc<AtomicUsize>,
         /// Puts so far and the time of the first (for the rate), then the publisher once declared.
@@ -144,8 +153,9 @@ pub async fn estimate_outlets(
                 Some(p) => p.put(payload).wait(),
                 None => {
                     self.count_put();
+                    let key = self.keyed.estimate.get().unwrap_or(&self.key);
                     self.session
-                        .put(self.key.clone(), payload)
+                        .put(key.clone(), payload)
                         .encoding(Encoding::APPLICATION_JSON)
                         .congestion_control(CongestionControl::Block)
                         .allowed_destination(Locality::Remote)
@@ -168,9 +178,11 @@ pub async fn estimate_outlets(
     let anyone = matching_flag(&watch).await?;
     let session = session.clone();
     let declared = Arc::new(AtomicUsize::new(0));
+    let declarer = KeyDeclarer::start(&session);
     let outlets: Outlets = Arc::new(move |key: &str| match KeyExpr::try_from(key.to_string()) {
         Ok(key) => Box::new(Vehicle {
             session: session.clone(),
+            keyed: declarer.declare(&key),
             key,
             anyone: anyone.clone(),
             declared: declared.clone(),
@@ -185,6 +197,135 @@ pub async fn estimate_outlets(
         }
     });
     Ok((outlets, watch))
+}
+
+/// A vehicle's keys as declared key expressions: its estimate key and its plain input keys (the
+/// same key with the input leaves), undeclared when the vehicle goes.
+struct DeclaredKeys {
+    session: zenoh::Session,
+    /// Where it sends its keys to be undeclared (the declarer's thread: a vehicle may be dropped
+    /// where zenoh's tables are held, and an undeclaration takes them for writing).
+    queue: crossbeam_channel::Sender<Declaration>,
+    /// The estimate key, `P/V/estimate`.
+    key: String,
+    estimate: OnceLock<KeyExpr<'static>>,
+    inputs: Mutex<Vec<KeyExpr<'static>>>,
+}
+
+impl DeclaredKeys {
+    /// Declares the keys; returns how many were.
+    fn declare(&self) -> usize {
+        let Some(stem) = self.key.strip_suffix(Leaf::Estimate.as_str()) else {
+            return 0;
+        };
+        let mut inputs = Vec::new();
+        for leaf in [Leaf::Gyro, Leaf::Vectors, Leaf::Imu] {
+            match self
+                .session
+                .declare_keyexpr(format!("{stem}{}", leaf.as_str()))
+                .wait()
+            {
+                Ok(k) => inputs.push(k),
+                Err(e) => {
+                    tracing::debug!(key = %self.key, error = %e, "cannot declare an input key")
+                }
+            }
+        }
+        let mut n = inputs.len();
+        *self.inputs.lock().unwrap_or_else(|e| e.into_inner()) = inputs;
+        match self.session.declare_keyexpr(self.key.clone()).wait() {
+            Ok(k) => {
+                let _ = self.estimate.set(k);
+                n += 1;
+            }
+            Err(e) => {
+                tracing::debug!(key = %self.key, error = %e, "cannot declare the estimate key")
+            }
+        }
+        n
+    }
+}
+
+impl Drop for DeclaredKeys {
+    fn drop(&mut self) {
+        let mut keys = std::mem::take(self.inputs.get_mut().unwrap_or_else(|e| e.into_inner()));
+        keys.extend(self.estimate.take());
+        if !keys.is_empty() {
+            let _ = self.queue.send(Declaration::Undeclare(keys));
+        }
+    }
+}
+
+/// What the declarer's thread does.
+enum Declaration {
+    /// Declares a vehicle's keys, unless it has gone meanwhile.
+    Declare(std::sync::Weak<DeclaredKeys>),
+    Undeclare(Vec<KeyExpr<'static>>),
+}
+
+/// Declares vehicles' keys on a thread of its own: a declaration takes zenoh's routing tables for
+/// writing and the session scans its own declarations, so the thousand vehicles of a first burst,
+/// declared on the workers as their outlets were made, held their estimates up by a third of a
+/// second. (Paced at one vehicle per 2 ms, it was worse: while the declarations trickled in, the
+/// service spent more CPU per estimate than with none.) A vehicle gone before its turn is skipped.
+struct KeyDeclarer {
+    session: zenoh::Session,
+    queue: crossbeam_channel::Sender<Declaration>,
+    /// Key expressions declared now (read by the tests).
+    #[allow(dead_code)]
+    live: Arc<AtomicUsize>,
+}
+
+impl KeyDeclarer {
+    fn start(session: &zenoh::Session) -> Self {
+        let (queue, rx) = crossbeam_channel::unbounded::<Declaration>();
+        let own = session.clone();
+        let live = Arc::new(AtomicUsize::new(0));
+        let counted = live.clone();
+        // Ends when the outlets and their vehicles (the queue's senders) are gone.
+        let spawned = std::thread::Builder::new()
+            .name("key-declarer".into())
+            .spawn(move || {
+                let live = counted;
+                for job in rx {
+                    match job {
+                        Declaration::Declare(weak) => {
+                            if let Some(keys) = weak.upgrade() {
+                                live.fetch_add(keys.declare(), Ordering::Relaxed);
+                            }
+                        }
+                        Declaration::Undeclare(keys) => {
+                            for k in keys {
+                                if own.undeclare(k).wait().is_ok() {
+                                    live.fetch_sub(1, Ordering::Relaxed);
+                                }
+                            }
+                        }
+                    }
+                }
+            });
+        if let Err(e) = spawned {
+            tracing::warn!(error = %e, "no key-declaring thread: every put computes its route");
+        }
+        KeyDeclarer {
+            session: session.clone(),
+            queue,
+            live,
+        }
+    }
+
+    /// The keys of the vehicle whose estimate key is `key`, declared in their turn.
+    fn declare(&self, key: &KeyExpr<'static>) -> Arc<DeclaredKeys> {
+        let keys = Arc::new(DeclaredKeys {
+            session: self.session.clone(),
+            queue: self.queue.clone(),
+            key: key.as_str().to_string(),
+            estimate: OnceLock::new(),
+            inputs: Mutex::new(Vec::new()),
+        });
+        let _ = self.queue.send(Declaration::Declare(Arc::downgrade(&keys)));
+        keys
+    }
 }
 
 /// An outlet that nobody can reach.
@@ -239,6 +380,45 @@ mod tests {
         let next = outlets("attitude/next/estimate");
         put(next.as_ref(), DECLARE_AFTER_PUTS);
         assert!(next.own_publisher());
+        session.close().await.unwrap();
+    }
+
+    /// A vehicle's estimate key and its three input keys are declared on the declarer's thread, and
+    /// undeclared there once the vehicle is dropped.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_vehicles_keys_are_declared_and_undeclared_with_it() {
+        let mut config = zenoh::Config::default();
+        config
+            .insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        config.insert_json5("listen/endpoints", "[]").unwrap();
+        let session = zenoh::open(config).await.unwrap();
+        let declarer = KeyDeclarer::start(&session);
+        let until = |what: &dyn Fn() -> bool| {
+            let end = Instant::now() + std::time::Duration::from_secs(5);
+            while !what() && Instant::now() < end {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            what()
+        };
+        let keys: Vec<_> = (0..3)
+            .map(|i| {
+                declarer.declare(&KeyExpr::try_from(format!("attitude/v{i}/estimate")).unwrap())
+            })
+            .collect();
+        assert!(until(&|| declarer.live.load(Ordering::Relaxed) == 12));
+        for (i, k) in keys.iter().enumerate() {
+            let declared = k.estimate.get().expect("declared");
+            assert_eq!(declared.as_str(), format!("attitude/v{i}/estimate"));
+            let inputs = k.inputs.lock().unwrap();
+            let names: Vec<&str> = inputs.iter().map(|k| k.as_str()).collect();
+            assert_eq!(
+                names,
+                ["gyro", "vectors", "imu"].map(|l| format!("attitude/v{i}/{l}"))
+            );
+        }
+        drop(keys);
+        assert!(until(&|| declarer.live.load(Ordering::Relaxed) == 0));
         session.close().await.unwrap();
     }
 }
