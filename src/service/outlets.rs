@@ -76,12 +76,12 @@ const MAX_DECLARED: usize = 64;
 /// estimates: raw IMU streams) get a publisher of their own, at most `MAX_DECLARED` of them, and
 /// the rest put on the session. Puts block under congestion rather than drop.
 ///
-/// Every vehicle's keys (its estimate key and its plain input keys) are declared as key expressions
-/// ([`KeyDeclarer`]): zenoh keeps a route for a declared key, so neither a put of its estimates nor
-/// an arrival of its inputs computes one (that computation, matching the key against every
-/// declaration, was a fifth of the service's CPU under 1000 MEKF vehicles at 10 Hz: BENCHMARKS.md,
-/// issue 30). Unlike a publisher, a declared key expression subscribes to nothing, so a thousand of
-/// them leave the other keys' routing as it was.
+/// The keys of the first `MAX_KEYED` vehicles (each one's estimate key and plain input keys) are
+/// declared as key expressions ([`KeyDeclarer`]): zenoh keeps a route for a declared key, so neither
+/// a put of their estimates nor an arrival of their inputs computes one (that computation, matching
+/// the key against every declaration, was a quarter of the service's CPU under 1000 MEKF vehicles at
+/// 10 Hz: BENCHMARKS.md, issue 30). Unlike a publisher, a declared key expression subscribes to
+/// nothing, so a thousand of them leave the other keys' routing as it was.
 pub async fn estimate_outlets(
     session: &zenoh::Session,
     keys: &Keys,
@@ -272,7 +272,8 @@ enum Declaration {
 /// writing and the session scans its own declarations, so the thousand vehicles of a first burst,
 /// declared on the workers as their outlets were made, held their estimates up by a third of a
 /// second. (Paced at one vehicle per 2 ms, it was worse: while the declarations trickled in, the
-/// service spent more CPU per estimate than with none.) A vehicle gone before its turn is skipped.
+/// service spent more CPU per estimate than with none; at `SCHED_IDLE`, [`idle_priority`], the first
+/// burst is answered as without them.) A vehicle gone before its turn is skipped.
 struct KeyDeclarer {
     session: zenoh::Session,
     queue: crossbeam_channel::Sender<Declaration>,
