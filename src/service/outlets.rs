@@ -178,7 +178,7 @@ pub async fn estimate_outlets(
     let anyone = matching_flag(&watch).await?;
     let session = session.clone();
     let declared = Arc::new(AtomicUsize::new(0));
-    let declarer = KeyDeclarer::start(&session);
+    let declarer = KeyDeclarer::start(&session, keys.clone());
     let outlets: Outlets = Arc::new(move |key: &str| match KeyExpr::try_from(key.to_string()) {
         Ok(key) => Box::new(Vehicle {
             session: session.clone(),
@@ -210,6 +210,8 @@ struct DeclaredKeys {
     queue: crossbeam_channel::Sender<Declaration>,
     /// The estimate key, `P/V/estimate`.
     key: String,
+    /// The input keys, `P/V/{gyro,vectors,imu}`.
+    input_keys: Vec<String>,
     estimate: OnceLock<KeyExpr<'static>>,
     inputs: Mutex<Vec<KeyExpr<'static>>>,
 }
@@ -217,16 +219,9 @@ struct DeclaredKeys {
 impl DeclaredKeys {
     /// Declares the keys; returns how many were.
     fn declare(&self) -> usize {
-        let Some(stem) = self.key.strip_suffix(Leaf::Estimate.as_str()) else {
-            return 0;
-        };
         let mut inputs = Vec::new();
-        for leaf in [Leaf::Gyro, Leaf::Vectors, Leaf::Imu] {
-            match self
-                .session
-                .declare_keyexpr(format!("{stem}{}", leaf.as_str()))
-                .wait()
-            {
+        for input in &self.input_keys {
+            match self.session.declare_keyexpr(input.clone()).wait() {
                 Ok(k) => inputs.push(k),
                 Err(e) => {
                     tracing::debug!(key = %self.key, error = %e, "cannot declare an input key")
@@ -282,6 +277,7 @@ struct KeyDeclarer {
     live: Arc<AtomicUsize>,
     /// Vehicles whose keys are declared or due.
     keyed: Arc<AtomicUsize>,
+    keys: Keys,
 }
 
 /// At most this many vehicles of one service have their keys declared; the others' puts compute
@@ -305,7 +301,7 @@ fn idle_priority() {
 }
 
 impl KeyDeclarer {
-    fn start(session: &zenoh::Session) -> Self {
+    fn start(session: &zenoh::Session, keys: Keys) -> Self {
         let (queue, rx) = crossbeam_channel::unbounded::<Declaration>();
         let own = session.clone();
         let live = Arc::new(AtomicUsize::new(0));
@@ -341,6 +337,7 @@ impl KeyDeclarer {
             queue,
             live,
             keyed: Arc::new(AtomicUsize::new(0)),
+            keys,
         }
     }
 
@@ -358,6 +355,12 @@ impl KeyDeclarer {
             session: self.session.clone(),
             queue: self.queue.clone(),
             key: key.as_str().to_string(),
+            input_keys: match self.keys.split(key.as_str()) {
+                Some((vehicle, _)) => [Leaf::Gyro, Leaf::Vectors, Leaf::Imu]
+                    .map(|leaf| self.keys.vehicle(vehicle, leaf))
+                    .to_vec(),
+                None => Vec::new(),
+            },
             estimate: OnceLock::new(),
             inputs: Mutex::new(Vec::new()),
         });
@@ -382,16 +385,21 @@ impl EstimateOutlet for Nowhere {
 mod tests {
     use super::*;
 
-    /// A vehicle gets its own publisher at its 256th estimate when they came fast, and the service
-    /// declares at most `MAX_DECLARED`; every put before and after goes out.
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn fast_vehicles_get_their_own_publisher_up_to_the_cap() {
+    /// A session of its own: no scouting, no listener.
+    async fn lone_session() -> zenoh::Session {
         let mut config = zenoh::Config::default();
         config
             .insert_json5("scouting/multicast/enabled", "false")
             .unwrap();
         config.insert_json5("listen/endpoints", "[]").unwrap();
-        let session = zenoh::open(config).await.unwrap();
+        zenoh::open(config).await.unwrap()
+    }
+
+    /// A vehicle gets its own publisher at its 256th estimate when they came fast, and the service
+    /// declares at most `MAX_DECLARED`; every put before and after goes out.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn fast_vehicles_get_their_own_publisher_up_to_the_cap() {
+        let session = lone_session().await;
         let (outlets, _watch) = estimate_outlets(&session, &Keys::new("attitude"))
             .await
             .unwrap();
@@ -427,13 +435,8 @@ mod tests {
     /// undeclared there once the vehicle is dropped.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_vehicles_keys_are_declared_and_undeclared_with_it() {
-        let mut config = zenoh::Config::default();
-        config
-            .insert_json5("scouting/multicast/enabled", "false")
-            .unwrap();
-        config.insert_json5("listen/endpoints", "[]").unwrap();
-        let session = zenoh::open(config).await.unwrap();
-        let declarer = KeyDeclarer::start(&session);
+        let session = lone_session().await;
+        let declarer = KeyDeclarer::start(&session, Keys::new("attitude"));
         let until = |what: &dyn Fn() -> bool| {
             let end = Instant::now() + std::time::Duration::from_secs(5);
             while !what() && Instant::now() < end {
