@@ -5,7 +5,7 @@ use super::{zerr, ServiceError};
 use crate::engine::{EstimateOutlet, Outlets, Sink};
 use crate::wire::keys::{Keys, Leaf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
@@ -75,13 +75,6 @@ const MAX_DECLARED: usize = 64;
 /// vehicles that publish fast (at least `DECLARE_MIN_RATE_HZ` over their first `DECLARE_AFTER_PUTS`
 /// estimates: raw IMU streams) get a publisher of their own, at most `MAX_DECLARED` of them, and
 /// the rest put on the session. Puts block under congestion rather than drop.
-///
-/// The keys of the first `MAX_KEYED` vehicles (each one's estimate key and plain input keys) are
-/// declared as key expressions ([`KeyDeclarer`]): zenoh keeps a route for a declared key, so neither
-/// a put of their estimates nor an arrival of their inputs computes one (that computation, matching
-/// the key against every declaration, was a quarter of the service's CPU under 1000 MEKF vehicles at
-/// 10 Hz: BENCHMARKS.md, issue 30). Unlike a publisher, a declared key expression subscribes to
-/// nothing, so a thousand of them leave the other keys' routing as it was.
 pub async fn estimate_outlets(
     session: &zenoh::Session,
     keys: &Keys,
@@ -89,8 +82,6 @@ pub async fn estimate_outlets(
     struct Vehicle {
         session: zenoh::Session,
         key: KeyExpr<'static>,
-        /// The keys once declared (the estimate key is put on then).
-        keyed: Arc<DeclaredKeys>,
         anyone: Arc<AtomicBool>,
         declared: Arc<AtomicUsize>,
         /// Puts so far and the time of the first (for the rate), then the publisher once declared.
@@ -153,9 +144,8 @@ pub async fn estimate_outlets(
                 Some(p) => p.put(payload).wait(),
                 None => {
                     self.count_put();
-                    let key = self.keyed.estimate.get().unwrap_or(&self.key);
                     self.session
-                        .put(key.clone(), payload)
+                        .put(self.key.clone(), payload)
                         .encoding(Encoding::APPLICATION_JSON)
                         .congestion_control(CongestionControl::Block)
                         .allowed_destination(Locality::Remote)
@@ -178,11 +168,9 @@ pub async fn estimate_outlets(
     let anyone = matching_flag(&watch).await?;
     let session = session.clone();
     let declared = Arc::new(AtomicUsize::new(0));
-    let declarer = KeyDeclarer::start(&session, keys.clone());
     let outlets: Outlets = Arc::new(move |key: &str| match KeyExpr::try_from(key.to_string()) {
         Ok(key) => Box::new(Vehicle {
             session: session.clone(),
-            keyed: declarer.declare(&key),
             key,
             anyone: anyone.clone(),
             declared: declared.clone(),
@@ -199,178 +187,6 @@ pub async fn estimate_outlets(
     Ok((outlets, watch))
 }
 
-/// A vehicle's keys as declared key expressions: its estimate key and its plain input keys (the
-/// same key with the input leaves), undeclared when the vehicle goes.
-struct DeclaredKeys {
-    session: zenoh::Session,
-    /// The declarer's count of keyed vehicles, when this one holds a place in it.
-    slot: Option<Arc<AtomicUsize>>,
-    /// Where it sends its keys to be undeclared (the declarer's thread: a vehicle may be dropped
-    /// where zenoh's tables are held, and an undeclaration takes them for writing).
-    queue: crossbeam_channel::Sender<Declaration>,
-    /// The estimate key, `P/V/estimate`.
-    key: String,
-    /// The input keys, `P/V/{gyro,vectors,imu}`.
-    input_keys: Vec<String>,
-    estimate: OnceLock<KeyExpr<'static>>,
-    inputs: Mutex<Vec<KeyExpr<'static>>>,
-}
-
-impl DeclaredKeys {
-    /// Declares the keys; returns how many were.
-    fn declare(&self) -> usize {
-        let mut inputs = Vec::new();
-        for input in &self.input_keys {
-            match self.session.declare_keyexpr(input.clone()).wait() {
-                Ok(k) => inputs.push(k),
-                Err(e) => {
-                    tracing::debug!(key = %self.key, error = %e, "cannot declare an input key")
-                }
-            }
-        }
-        let mut n = inputs.len();
-        *self.inputs.lock().unwrap_or_else(|e| e.into_inner()) = inputs;
-        match self.session.declare_keyexpr(self.key.clone()).wait() {
-            Ok(k) => {
-                let _ = self.estimate.set(k);
-                n += 1;
-            }
-            Err(e) => {
-                tracing::debug!(key = %self.key, error = %e, "cannot declare the estimate key")
-            }
-        }
-        n
-    }
-}
-
-impl Drop for DeclaredKeys {
-    fn drop(&mut self) {
-        let mut keys = std::mem::take(self.inputs.get_mut().unwrap_or_else(|e| e.into_inner()));
-        keys.extend(self.estimate.take());
-        if let Some(keyed) = &self.slot {
-            keyed.fetch_sub(1, Ordering::Relaxed);
-        }
-        if !keys.is_empty() {
-            let _ = self.queue.send(Declaration::Undeclare(keys));
-        }
-    }
-}
-
-/// What the declarer's thread does.
-enum Declaration {
-    /// Declares a vehicle's keys, unless it has gone meanwhile.
-    Declare(std::sync::Weak<DeclaredKeys>),
-    Undeclare(Vec<KeyExpr<'static>>),
-}
-
-/// Declares vehicles' keys on a thread of its own: a declaration takes zenoh's routing tables for
-/// writing and the session scans its own declarations, so the thousand vehicles of a first burst,
-/// declared on the workers as their outlets were made, held their estimates up by a third of a
-/// second. (Paced at one vehicle per 2 ms, it was worse: while the declarations trickled in, the
-/// service spent more CPU per estimate than with none; at `SCHED_IDLE`, [`idle_priority`], the first
-/// burst is answered as without them.) A vehicle gone before its turn is skipped.
-struct KeyDeclarer {
-    session: zenoh::Session,
-    queue: crossbeam_channel::Sender<Declaration>,
-    /// Key expressions declared now (read by the tests).
-    #[allow(dead_code)]
-    live: Arc<AtomicUsize>,
-    /// Vehicles whose keys are declared or due.
-    keyed: Arc<AtomicUsize>,
-    keys: Keys,
-}
-
-/// At most this many vehicles of one service have their keys declared; the others' puts compute
-/// their routes as before. zenoh 1.10's session finds a key among its declarations by a linear scan,
-/// under its lock: 4 000 declarations took 0.26 s here, growing with the square of their number.
-const MAX_KEYED: usize = 1024;
-
-/// Runs the calling thread only when a core would otherwise idle (Linux `SCHED_IDLE`): the
-/// declarations of a first burst then wait for the burst to be answered instead of competing with it
-/// for the cores. (A thread that waits on a lock a declaration holds leaves its core to it.)
-fn idle_priority() {
-    #[cfg(target_os = "linux")]
-    {
-        let param = libc::sched_param { sched_priority: 0 };
-        // SAFETY: plain system call on the calling thread (pid 0) with a valid parameter.
-        let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_IDLE, &param) };
-        if rc != 0 {
-            tracing::debug!("key declarations at normal priority (SCHED_IDLE refused)");
-        }
-    }
-}
-
-impl KeyDeclarer {
-    fn start(session: &zenoh::Session, keys: Keys) -> Self {
-        let (queue, rx) = crossbeam_channel::unbounded::<Declaration>();
-        let own = session.clone();
-        let live = Arc::new(AtomicUsize::new(0));
-        let counted = live.clone();
-        // Ends when the outlets and their vehicles (the queue's senders) are gone.
-        let spawned = std::thread::Builder::new()
-            .name("key-declarer".into())
-            .spawn(move || {
-                idle_priority();
-                let live = counted;
-                for job in rx {
-                    match job {
-                        Declaration::Declare(weak) => {
-                            if let Some(keys) = weak.upgrade() {
-                                live.fetch_add(keys.declare(), Ordering::Relaxed);
-                            }
-                        }
-                        Declaration::Undeclare(keys) => {
-                            for k in keys {
-                                if own.undeclare(k).wait().is_ok() {
-                                    live.fetch_sub(1, Ordering::Relaxed);
-                                }
-                            }
-                        }
-                    }
-                }
-            });
-        if let Err(e) = spawned {
-            tracing::warn!(error = %e, "no key-declaring thread: every put computes its route");
-        }
-        KeyDeclarer {
-            session: session.clone(),
-            queue,
-            live,
-            keyed: Arc::new(AtomicUsize::new(0)),
-            keys,
-        }
-    }
-
-    /// The keys of the vehicle whose estimate key is `key`, declared in their turn while fewer than
-    /// `MAX_KEYED` vehicles have theirs.
-    fn declare(&self, key: &KeyExpr<'static>) -> Arc<DeclaredKeys> {
-        let slot = self
-            .keyed
-            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| {
-                (n < MAX_KEYED).then_some(n + 1)
-            })
-            .is_ok();
-        let keys = Arc::new(DeclaredKeys {
-            slot: slot.then(|| self.keyed.clone()),
-            session: self.session.clone(),
-            queue: self.queue.clone(),
-            key: key.as_str().to_string(),
-            input_keys: match self.keys.split(key.as_str()) {
-                Some((vehicle, _)) => [Leaf::Gyro, Leaf::Vectors, Leaf::Imu]
-                    .map(|leaf| self.keys.vehicle(vehicle, leaf))
-                    .to_vec(),
-                None => Vec::new(),
-            },
-            estimate: OnceLock::new(),
-            inputs: Mutex::new(Vec::new()),
-        });
-        if slot {
-            let _ = self.queue.send(Declaration::Declare(Arc::downgrade(&keys)));
-        }
-        keys
-    }
-}
-
 /// An outlet that nobody can reach.
 struct Nowhere;
 
@@ -385,21 +201,16 @@ impl EstimateOutlet for Nowhere {
 mod tests {
     use super::*;
 
-    /// A session of its own: no scouting, no listener.
-    async fn lone_session() -> zenoh::Session {
+    /// A vehicle gets its own publisher at its 256th estimate when they came fast, and the service
+    /// declares at most `MAX_DECLARED`; every put before and after goes out.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn fast_vehicles_get_their_own_publisher_up_to_the_cap() {
         let mut config = zenoh::Config::default();
         config
             .insert_json5("scouting/multicast/enabled", "false")
             .unwrap();
         config.insert_json5("listen/endpoints", "[]").unwrap();
-        zenoh::open(config).await.unwrap()
-    }
-
-    /// A vehicle gets its own publisher at its 256th estimate when they came fast, and the service
-    /// declares at most `MAX_DECLARED`; every put before and after goes out.
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn fast_vehicles_get_their_own_publisher_up_to_the_cap() {
-        let session = lone_session().await;
+        let session = zenoh::open(config).await.unwrap();
         let (outlets, _watch) = estimate_outlets(&session, &Keys::new("attitude"))
             .await
             .unwrap();
@@ -428,49 +239,6 @@ mod tests {
         let next = outlets("attitude/next/estimate");
         put(next.as_ref(), DECLARE_AFTER_PUTS);
         assert!(next.own_publisher());
-        session.close().await.unwrap();
-    }
-
-    /// A vehicle's estimate key and its three input keys are declared on the declarer's thread, and
-    /// undeclared there once the vehicle is dropped.
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn a_vehicles_keys_are_declared_and_undeclared_with_it() {
-        let session = lone_session().await;
-        let declarer = KeyDeclarer::start(&session, Keys::new("attitude"));
-        let until = |what: &dyn Fn() -> bool| {
-            let end = Instant::now() + std::time::Duration::from_secs(5);
-            while !what() && Instant::now() < end {
-                std::thread::sleep(std::time::Duration::from_millis(5));
-            }
-            what()
-        };
-        let keys: Vec<_> = (0..3)
-            .map(|i| {
-                declarer.declare(&KeyExpr::try_from(format!("attitude/v{i}/estimate")).unwrap())
-            })
-            .collect();
-        assert!(until(&|| declarer.live.load(Ordering::Relaxed) == 12));
-        for (i, k) in keys.iter().enumerate() {
-            let declared = k.estimate.get().expect("declared");
-            assert_eq!(declared.as_str(), format!("attitude/v{i}/estimate"));
-            let inputs = k.inputs.lock().unwrap();
-            let names: Vec<&str> = inputs.iter().map(|k| k.as_str()).collect();
-            assert_eq!(
-                names,
-                ["gyro", "vectors", "imu"].map(|l| format!("attitude/v{i}/{l}"))
-            );
-        }
-        drop(keys);
-        assert!(until(&|| declarer.live.load(Ordering::Relaxed) == 0));
-        // At most MAX_KEYED vehicles hold a place; one that goes gives it to the next.
-        let key = |i: usize| KeyExpr::try_from(format!("attitude/w{i}/estimate")).unwrap();
-        let mut held: Vec<_> = (0..MAX_KEYED).map(|i| declarer.declare(&key(i))).collect();
-        assert!(held.iter().all(|k| k.slot.is_some()));
-        assert!(declarer.declare(&key(MAX_KEYED)).slot.is_none());
-        held.pop();
-        assert!(declarer.declare(&key(MAX_KEYED + 1)).slot.is_some());
-        drop(held);
-        assert!(until(&|| declarer.live.load(Ordering::Relaxed) == 0));
         session.close().await.unwrap();
     }
 }

@@ -7,5 +7,6 @@ mod common;
 mod binaries;
 mod loadgen;
 mod montecarlo_cli;
+mod scaling;
 mod soak_cli;
 mod tuning;
