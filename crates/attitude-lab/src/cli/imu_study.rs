@@ -34,6 +34,11 @@ pub struct ImuStudyArgs {
     /// Print one JSON array instead of a table.
     #[arg(long)]
     json: bool,
+    /// For a trial whose truth has its own frames (`align: both`): fit the alignment without this
+    /// fraction of the samples, those with the largest error (e.g. 0.1; every sample is still scored).
+    /// Default 0: the fit on every movement sample, as docs/recordings.md describes.
+    #[arg(long, default_value_t = 0.0, value_parser = trim_fraction)]
+    align_trim: f64,
     /// Write each trial's estimates, truth and pipeline state per sample to DIR/TRIAL.csv.
     #[arg(long)]
     series: Option<PathBuf>,
@@ -55,15 +60,30 @@ pub struct ImuStudyArgs {
     out: Option<PathBuf>,
 }
 
+/// A fraction in [0, 0.5).
+fn trim_fraction(s: &str) -> std::result::Result<f64, String> {
+    let f: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
+    if (0.0..0.5).contains(&f) {
+        Ok(f)
+    } else {
+        Err(format!(
+            "{s}: the fraction left out of the fit must be in [0, 0.5)"
+        ))
+    }
+}
+
 /// `imu-study`: the trials scored (or tuned with `--tune`).
 pub fn imu_study(args: ImuStudyArgs) -> Result<()> {
     let service = load_config(&args.config, &args.sets)?;
     let mut setup = Setup::new(&service, args.filter, args.particles);
     setup.vehicle = args.vehicle.clone();
-    let trials = trial_paths(&args.trials)?
+    let mut trials = trial_paths(&args.trials)?
         .iter()
         .map(|p| read_trial(p))
         .collect::<Result<Vec<_>, _>>()?;
+    for t in &mut trials {
+        t.truth_model.align_trim = args.align_trim;
+    }
     if let Some(spec_path) = &args.tune {
         return tune(&args, spec_path, &trials);
     }

@@ -102,6 +102,7 @@ impl TruthMeta {
             align: self.align.unwrap_or(Align::None),
             tilt_sigma_rad: tilt,
             time_sigma_s: time,
+            ..d
         })
     }
 }
