@@ -54,7 +54,7 @@ async fn a_messages_cost_does_not_grow_with_the_number_of_vehicles() {
             .spawn()
             .expect("the service binary starts"),
     );
-    let client = open_zenoh(&[], &[endpoint.clone()]).await;
+    let client = open_zenoh(&[], std::slice::from_ref(&endpoint)).await;
     let start = Instant::now();
     loop {
         let replies = client
