@@ -4,7 +4,8 @@
 through the service's vehicle pipeline, scores them in Rust and writes every sample's estimate (`--series`: q and the
 attitude covariance, printed to round-trip); `broad_scores` on those estimates, with the truth and `movement` as
 attitude_client.replay reads them from the HDF5 files, must give the same accuracy and honesty figures. The MEKF and the QPF
-(their covariances differ in shape: the QPF's is a particle spread). Measured agreement: 4e-14 at most.
+(their covariances differ in shape: the QPF's is a particle spread). Measured agreement: 4e-14 at most. And a
+truth in its own frames (`align: both`), the alignment fitted on every sample and trimmed: 7e-12 at most.
 
 Data: BROAD (Laidig, Caruso, Cereatti, Seel, Data 6(7), 2021, doi:10.3390/data6070072), CC-BY-4.0.
 """
@@ -91,3 +92,58 @@ def test_scores_of_known_errors():
     # No truth, or not moving: nothing scored.
     s = broad_scores(about([1, 0, 0], 2.0), p, np.full((1, 4), np.nan), np.array([True]))
     assert s["scored"] == 0 and np.isnan(s["total_rmse_deg"]) and np.isnan(s["tilt_in99"])
+
+
+def test_aligned_scores_equal_the_rust_scores(tmp_path):
+    """A truth in its own frames (``align: both``): the excerpt's truth carried into other reference and body frames
+    (``L·q·R``, half turns and tilts, as a motion-capture rig's are), exported and scored by imu-study, with the
+    alignment fitted on every sample and without the tenth with the largest error (``--align-trim 0.1``);
+    ``broad_scores`` on the same estimates gives the same figures, and the fitted frames are the ones put in."""
+    import h5py
+
+    name = EXCERPTS[0]
+    src = DATA / f"{name}.hdf5"
+    assert src.exists(), f"committed excerpt missing: {src}"
+    rotated = tmp_path / f"{name}.hdf5"
+    rotated.write_bytes(src.read_bytes())
+
+    def q_of(axis, angle):
+        a = np.asarray(axis, float) / np.linalg.norm(axis)
+        return np.array([np.cos(angle / 2), *(a * np.sin(angle / 2))])
+
+    l = q_of([0.2, -0.3, 1.0], 2.6)
+    r = q_of([1.0, 0.1, 0.2], 3.0)
+    with h5py.File(rotated, "r+") as f:
+        q = f["opt_quat"][:]
+        ok = np.isfinite(q).all(axis=1)
+        q[ok] = quatmult(quatmult(np.broadcast_to(l, q[ok].shape), q[ok]), np.broadcast_to(r, q[ok].shape))
+        f["opt_quat"][...] = q
+        f.attrs["align"] = "both"
+    exported = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "broad-export.py"), str(rotated), "--out", str(tmp_path / "trials")],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert exported.returncode == 0, exported.stderr
+    trial = load_trial(rotated, None)
+    assert trial["truth"]["align"] == "both"
+    angle = lambda a: float(np.rad2deg(2 * np.arctan2(np.linalg.norm(a[1:]), abs(a[0]))))  # noqa: E731
+    for trim in (0.0, 0.1):
+        series = tmp_path / f"series-{trim}"
+        out = subprocess.run(
+            [str(LAB), "imu-study", str(tmp_path / "trials"), "--config", str(ROOT / "config" / "imu.json5"),
+             "--json", "--series", str(series), "--align-trim", str(trim)],
+            capture_output=True, text=True, timeout=120,
+        )
+        assert out.returncode == 0, out.stderr
+        (r_scores,) = json.loads(out.stdout)
+        _, q_est, p = read_series(series / f"{name}.csv")
+        py = broad_scores(q_est, p, trial["opt_quat"], trial["movement"], {**trial["truth"], "align_trim": trim})
+        assert py["scored"] == r_scores["scored"] > 15_000, (trim, py, r_scores)
+        for key in ACCURACY_KEYS + HONESTY_KEYS + ("align_reference_deg", "align_body_deg"):
+            assert py[key] == pytest.approx(r_scores[key], rel=1e-9, abs=1e-9), (trim, key, py[key], r_scores[key])
+        # The frames put in come back (to the estimator's own heading offset and mounting, a degree or so).
+        assert py["align_reference_deg"] == pytest.approx(angle(l), abs=2.0), py
+        assert py["align_body_deg"] == pytest.approx(angle(r), abs=2.0), py
+        assert 0.3 < py["total_rmse_deg"] < 5 and 0.5 < py["tilt_in99"] <= 1.0, (trim, py)
+    with pytest.raises(ValueError):
+        broad_scores(q_est, p, trial["opt_quat"], trial["movement"], {"align": "both", "align_trim": 0.5})

@@ -183,6 +183,29 @@ def alignment(q_est: np.ndarray, q_true: np.ndarray) -> tuple[np.ndarray, np.nda
     return l, r
 
 
+def trimmed_alignment(q_est: np.ndarray, q_true: np.ndarray, trim: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`alignment` fitted without the ``trim`` fraction of the rows whose error is largest: fitted on all, the
+    rows' errors ranked, fitted again on the rest, five times at most (until the rows kept stop changing).
+    A squared-error fit lets a few large errors (a saturated swing's) turn the frames, and every other row then looks
+    off; the trimmed rows are still scored. ``trim`` 0 is :func:`alignment` (``trimmed_alignment`` of
+    crates/attitude-lab/src/study/broad.rs)."""
+    l, r = alignment(q_est, q_true)
+    if not 0.0 < trim < 1.0:
+        return l, r
+    kept = np.ones(len(q_est), dtype=bool)
+    for _ in range(5):
+        d = quatmult(quatmult(quatmult(invquat(l), q_true), invquat(r)), invquat(q_est))
+        err = 2.0 * np.arctan2(np.linalg.norm(d[:, 1:], axis=1), np.abs(d[:, 0]))
+        keep = int(np.ceil((1.0 - trim) * len(err)))
+        limit = np.sort(err)[max(keep, 1) - 1]
+        new = err <= limit
+        if np.array_equal(new, kept):
+            break
+        kept = new
+        l, r = alignment(q_est[kept], q_true[kept])
+    return l, r
+
+
 def broad_scores(
     q_est: np.ndarray,
     cov_att: np.ndarray | None,
@@ -221,7 +244,7 @@ def broad_scores(
     qt = q_true[rows] / np.linalg.norm(q_true[rows], axis=1)[:, None]
     extra = {}
     if truth["align"] == "both" and len(qe):
-        l, r = alignment(qe, qt)
+        l, r = trimmed_alignment(qe, qt, truth["align_trim"])
         qt = quatmult(quatmult(invquat(l), qt), invquat(r))
         for key, a in (("align_reference_deg", l), ("align_body_deg", r)):
             extra[key] = float(np.rad2deg(2.0 * np.arctan2(np.linalg.norm(a[1:]), abs(a[0]))))
@@ -248,13 +271,17 @@ def broad_scores(
 
 def truth_model(truth: dict | None) -> dict:
     """The truth's description with its defaults (BROAD's): ``align`` ("none" or "both"), ``truth_tilt_sigma_deg``
-    (0.2), ``truth_time_sigma_s`` (0)."""
-    out = {"align": "none", "truth_tilt_sigma_deg": float(np.rad2deg(TRUTH_TILT_SIGMA_RAD)), "truth_time_sigma_s": 0.0}
+    (0.2), ``truth_time_sigma_s`` (0), and how the alignment is fitted, ``align_trim`` (0: on every row;
+    :func:`trimmed_alignment`)."""
+    out = {"align": "none", "truth_tilt_sigma_deg": float(np.rad2deg(TRUTH_TILT_SIGMA_RAD)), "truth_time_sigma_s": 0.0,
+           "align_trim": 0.0}
     for k, v in (truth or {}).items():
         if k in out and v is not None:
             out[k] = v if k == "align" else float(v)
     if out["align"] not in ("none", "both"):
         raise ValueError(f"align {out['align']!r}: expected 'none' or 'both'")
+    if not 0.0 <= out["align_trim"] < 0.5:
+        raise ValueError(f"align_trim {out['align_trim']}: expected a fraction in [0, 0.5)")
     return out
 
 
@@ -671,12 +698,19 @@ def main() -> int:
     ap.add_argument("--plain", action="store_true",
                     help="plain puts instead of advanced publishers (no recovery of a lost put)")
     ap.add_argument("--details", type=Path, help="write the run's particulars here (JSON)")
+    ap.add_argument("--align-trim", type=float, default=0.0,
+                    help="for a truth in its own frames (align: both): fit the alignment without this fraction of the "
+                         "samples with the largest error, e.g. 0.1 (every sample is still scored; default 0, the fit "
+                         "on every sample: docs/recordings.md)")
     args = ap.parse_args()
     if args.batch < 1 or args.window < args.batch or (args.particles is not None and args.particles < 1) or args.copies < 1 or args.pause < 0:
         ap.error("--batch must be ≥ 1, --window ≥ --batch, --particles ≥ 1, --copies ≥ 1, --pause ≥ 0")
+    if not 0.0 <= args.align_trim < 0.5:
+        ap.error("--align-trim must be a fraction in [0, 0.5)")
     args.reset_t = None
 
     trial = load_trial(args.trial, args.excerpt_seconds)
+    trial["truth"] = truth_model({**trial["truth"], "align_trim": args.align_trim})
     if trial["opt_quat"] is None or trial["movement"] is None or not trial["movement"].any():
         raise SystemExit(f"{args.trial}: needs opt_quat and movement samples to score")
     specs = [s.strip() for s in args.filters.split(",") if s.strip()]
