@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .replay import CSV_COLUMNS, load_trial
+from .replay import CSV_COLUMNS, TRUTH_FILE_KEYS, load_trial
 
 
 def resample(trial: dict, times: np.ndarray) -> dict:
@@ -167,7 +167,8 @@ def write_csv(trial: dict, path: Path) -> None:
     mv = trial["movement"] if trial["movement"] is not None else np.zeros(n, dtype=bool)
     with open(path, "w") as fh:
         for k, v in (trial.get("truth") or {}).items():
-            fh.write(f"# {k}: {v}\n")
+            if k in TRUTH_FILE_KEYS:
+                fh.write(f"# {k}: {v}\n")
         fh.write(",".join(CSV_COLUMNS) + "\n")
         for k in range(n):
             fields = [repr(float(trial["t"][k]))]

@@ -269,6 +269,11 @@ def broad_scores(
     return out
 
 
+#: The truth description a recording carries (a CSV trial's ``#`` lines, an HDF5 file's attributes, a trial file's
+#: trailer; docs/recordings.md). ``truth_model``'s ``align_trim`` is how a run scores, not a property of the recording.
+TRUTH_FILE_KEYS = ("align", "truth_tilt_sigma_deg", "truth_time_sigma_s")
+
+
 def truth_model(truth: dict | None) -> dict:
     """The truth's description with its defaults (BROAD's): ``align`` ("none" or "both"), ``truth_tilt_sigma_deg``
     (0.2), ``truth_time_sigma_s`` (0), and how the alignment is fitted, ``align_trim`` (0: on every row;
@@ -399,7 +404,7 @@ def _load_csv_trial(path: Path) -> dict:
         "rate_hz": rate,
         "first_sample": 0,
         "t": t,
-        "truth": truth_model({k: meta.get(k) for k in ("align", "truth_tilt_sigma_deg", "truth_time_sigma_s")}),
+        "truth": truth_model({k: meta.get(k) for k in TRUTH_FILE_KEYS}),
     }
 
 
@@ -423,7 +428,7 @@ def _load_hdf5_trial(path: Path) -> dict:
             "rate_hz": float(f.attrs["sampling_rate"]),
             "first_sample": int(f.attrs.get("first_sample", 0)),
             "truth": truth_model(
-                {k: attr(k) for k in ("align", "truth_tilt_sigma_deg", "truth_time_sigma_s")}
+                {k: attr(k) for k in TRUTH_FILE_KEYS}
             ),
         }
     k = trial["first_sample"] + np.arange(len(trial["gyr"]), dtype=np.float64)
