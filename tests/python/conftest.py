@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import pathlib
+import shutil
 import signal
 import socket
 import subprocess
@@ -17,6 +18,7 @@ import sys
 import tempfile
 import threading
 import time
+import weakref
 from typing import Callable
 
 import pytest
@@ -96,6 +98,10 @@ class ServiceProcess:
         self.port = port or free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.dir = pathlib.Path(workdir or tempfile.mkdtemp(prefix="attitude-pytest-"))
+        if workdir is None:
+            # Its own folder (the configuration and the log) goes with it: a test reads the log while it holds the
+            # process, and a failing test's message carries the log's tail.
+            weakref.finalize(self, shutil.rmtree, str(self.dir), ignore_errors=True)
         config = {
             "zenoh": {
                 "mode": "peer",

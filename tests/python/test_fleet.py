@@ -18,7 +18,6 @@ import os
 import pathlib
 import signal
 import subprocess
-import tempfile
 import threading
 import time
 
@@ -149,9 +148,8 @@ class Sensors(threading.Thread):
 
 
 @pytest.fixture
-def fleet_dir():
-    d = pathlib.Path(tempfile.mkdtemp(prefix="attitude-fleet-"))
-    yield d
+def fleet_dir(tmp_path):
+    yield tmp_path
 
 
 def test_fleet_through_routers(fleet_dir):

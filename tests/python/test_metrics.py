@@ -20,7 +20,6 @@ import pathlib
 import re
 import signal
 import subprocess
-import tempfile
 import time
 import urllib.error
 import urllib.parse
@@ -160,9 +159,9 @@ def ensured() -> tuple[str, pathlib.Path]:
     return zenohd, pathlib.Path(zenohd).parent.parent / "lib"
 
 
-def test_the_same_urls_through_a_router_running_the_plugin():
+def test_the_same_urls_through_a_router_running_the_plugin(tmp_path):
     zenohd, plugins = ensured()
-    work = pathlib.Path(tempfile.mkdtemp(prefix="attitude-pytest-router-"))
+    work = tmp_path
     zport, http = free_port(), free_port()
     router_log = open(work / "zenohd.log", "wb")
     router = subprocess.Popen(

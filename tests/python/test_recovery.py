@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import contextlib
 import signal
-import tempfile
 import threading
 import time
 
@@ -347,14 +346,14 @@ def test_two_spacecraft_senders_cut_for_2_s_on_a_busy_machine_give_the_in_order_
         assert not diff, (v, diff[:5])
 
 
-def test_a_service_restart_within_the_senders_cache_gives_the_uninterrupted_estimates(trial, calm):
+def test_a_service_restart_within_the_senders_cache_gives_the_uninterrupted_estimates(trial, calm, tmp_path):
     n = len(trial["t"])
     calm, _ = calm
 
     # The sender and the observer listen; the service connects to both as it starts (so that both are there
     # before it takes its first input), with its checkpoints in a state directory.
     sender_ep, observer_ep = (f"tcp/127.0.0.1:{free_port()}" for _ in range(2))
-    state_dir = tempfile.mkdtemp(prefix="attitude-recovery-")
+    state_dir = str(tmp_path)
 
     def start():
         return imu_service({"persistence": {"state_dir": state_dir, "checkpoint_interval_s": 3600.0}},

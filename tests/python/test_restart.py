@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import pathlib
 import signal
-import tempfile
 import time
 
 import pytest
@@ -58,13 +57,15 @@ def stop(svc, c, sig=signal.SIGTERM):
     return code
 
 
-def test_sigterm_loses_nothing_and_the_restart_changes_nothing():
+def test_sigterm_loses_nothing_and_the_restart_changes_nothing(tmp_path):
     chunks = Scenario(seed=41, duration_s=60.0).chunks()
     first, second = chunks[:31], chunks[31:]  # t = 0..30, then 31..60
-    state_dir = tempfile.mkdtemp(prefix="attitude-state-")
+    (tmp_path / "state").mkdir()
+    (tmp_path / "ref").mkdir()
+    state_dir = str(tmp_path / "state")
 
     # The reference: one service, never restarted.
-    ref, rc = start(tempfile.mkdtemp(prefix="attitude-state-ref-"))
+    ref, rc = start(str(tmp_path / "ref"))
     got = Collector()
     sub = subscribe_synced(rc, rc.subscribe_estimates, got)
     stream(rc, chunks)
@@ -118,9 +119,9 @@ def test_sigterm_loses_nothing_and_the_restart_changes_nothing():
         assert stop(b, bc) == 0
 
 
-def test_sigkill_loses_at_most_one_checkpoint_interval():
+def test_sigkill_loses_at_most_one_checkpoint_interval(tmp_path):
     interval = 1.0
-    state_dir = tempfile.mkdtemp(prefix="attitude-state-kill-")
+    state_dir = str(tmp_path)
     svc, c = start(state_dir, interval_s=interval)
     got = Collector()
     sub = subscribe_synced(c, c.subscribe_estimates, lambda e: got((time.monotonic(), e)))
@@ -166,8 +167,8 @@ def test_sigkill_loses_at_most_one_checkpoint_interval():
         assert stop(b, bc) == 0
 
 
-def test_a_corrupt_checkpoint_is_reported_and_skipped():
-    state_dir = tempfile.mkdtemp(prefix="attitude-state-bad-")
+def test_a_corrupt_checkpoint_is_reported_and_skipped(tmp_path):
+    state_dir = str(tmp_path)
     a, ac = start(state_dir)
     got = Collector()
     sub = subscribe_synced(ac, ac.subscribe_estimates, got)
