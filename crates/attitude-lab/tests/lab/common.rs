@@ -82,6 +82,34 @@ pub async fn open_zenoh(listen: &[String], connect: &[String]) -> zenoh::Session
         .unwrap()
 }
 
+/// Waits until a service answers `P/@/health` (prefix `attitude`) to `client` with a health message;
+/// fails the test after `within`.
+pub async fn wait_healthy(client: &zenoh::Session, within: Duration) {
+    let key = attitude_service::wire::keys::Keys::new("attitude").health();
+    let start = Instant::now();
+    loop {
+        let replies = client
+            .get(&key)
+            .timeout(Duration::from_secs(2))
+            .await
+            .unwrap();
+        let healthy = match replies.recv_async().await {
+            Ok(reply) => reply.result().is_ok_and(|s| {
+                serde_json::from_slice::<HealthMsg>(&s.payload().to_bytes()).is_ok()
+            }),
+            Err(_) => false,
+        };
+        if healthy {
+            return;
+        }
+        assert!(
+            start.elapsed() < within,
+            "the service to answer on {key}: not within {within:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
 /// The `service` section of a configuration file's text, as the service reads it.
 pub fn service_config(text: &str) -> ServiceConfig {
     parse(text, "test")
@@ -106,28 +134,7 @@ impl Service {
             let _ = rx.await;
         }));
         let client = open_zenoh(&[], &[endpoint]).await;
-        let start = Instant::now();
-        loop {
-            let replies = client
-                .get("attitude/@/health")
-                .timeout(Duration::from_secs(5))
-                .await
-                .unwrap();
-            let healthy = match replies.recv_async().await {
-                Ok(reply) => reply.result().is_ok_and(|s| {
-                    serde_json::from_slice::<HealthMsg>(&s.payload().to_bytes()).is_ok()
-                }),
-                Err(_) => false,
-            };
-            if healthy {
-                break;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(10),
-                "the service to answer on attitude/@/health: not within 10 s"
-            );
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
+        wait_healthy(&client, Duration::from_secs(10)).await;
         Service {
             client,
             stop: Some(tx),
