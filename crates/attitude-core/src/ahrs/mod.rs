@@ -381,20 +381,33 @@ impl Ahrs {
         self.q_gyro = q;
         let a_gyro = q.attitude_matrix();
         self.gravity.update(&c.acc, &acc, &a_gyro, 0.0, false);
-        let mut heading_moving2 = moving2;
+        // The heading is the field's direction across the vertical the accelerometer gave: a vertical
+        // tipped by δ about north turns it by −tan(dip) δ (about east, not at all). So the heading
+        // inherits the tilt's uncertainty about north times tan(dip), fully correlated with it, and
+        // keeps it after the accelerometer has corrected the tilt (a tilt update never turns the
+        // heading). Without a field the heading is the body's axis: no such term.
+        let mut kappa = 0.0;
         if let (Some(m), true) = (mag, from_mag.is_some()) {
             let n = m.norm();
             let dip = dip_rad(&(m / n), &up_b);
-            heading_moving2 *= dip.tan().powi(2).min(100.0);
+            kappa = -dip.tan().clamp(-10.0, 10.0);
             self.field = Some(FieldChannel::new(n, dip, &Vector3::y()));
         }
         self.phase = Phase::Running;
-        // Initial covariance: tilt and heading σ in the reference frame, rotated into the body.
-        let pe = Matrix3::from_diagonal(&Vector3::new(
-            c.init.tilt_sigma_rad.powi(2) + moving2,
-            c.init.tilt_sigma_rad.powi(2) + moving2,
-            c.init.heading_sigma_rad.powi(2) + heading_moving2,
-        ));
+        // Initial covariance: tilt and heading σ in the reference frame (east, north, up), rotated
+        // into the body.
+        let tilt2 = c.init.tilt_sigma_rad.powi(2) + moving2;
+        let pe = Matrix3::new(
+            tilt2,
+            0.0,
+            0.0,
+            0.0,
+            tilt2,
+            kappa * tilt2,
+            0.0,
+            kappa * tilt2,
+            c.init.heading_sigma_rad.powi(2) + kappa * kappa * tilt2,
+        );
         let pb = a * pe * a.transpose();
         let mut p = Matrix6::zeros();
         p.fixed_view_mut::<3, 3>(0, 0).copy_from(&pb);
@@ -755,4 +768,82 @@ fn floor(
         filter.inflate_attitude(&((body + body.transpose()) * 0.5))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    /// The attitude a still, level-or-tilted body aligns to from `acc_ref` (the specific force in
+    /// the reference frame: gravity, or gravity plus a motion) and a field of dip `dip_rad`, with the
+    /// body's attitude `a_true` (reference → body).
+    fn aligned(a_true: &Matrix3<f64>, acc_ref: &Vector3<f64>, dip_rad: f64) -> InitialState {
+        let c = AhrsConfig::default();
+        let field = Vector3::new(0.0, dip_rad.cos(), -dip_rad.sin()) * 48.0;
+        let mut ahrs = Ahrs::new(&c);
+        for k in 0..=20 {
+            let s = ImuSample {
+                t_s: 0.01 * f64::from(k),
+                gyr_rad_s: Vector3::zeros(),
+                acc_m_s2: a_true * acc_ref,
+                mag: Some(a_true * field),
+            };
+            if let Some(init) = ahrs.align(&c, &s, &Vector3::repeat(0.01)) {
+                return init;
+            }
+        }
+        panic!("no alignment within 0.2 s");
+    }
+
+    /// The alignment's heading comes from the field across the accelerometer's vertical, so a
+    /// vertical tipped about north turns it by −tan(dip) times the tip. The initial covariance must
+    /// say so: checked against the alignment itself by finite differences, for dips of both signs.
+    /// (Before, the heading's variance ignored it: at a dip of 66° a 2° tilt σ leaves the heading
+    /// uncertain by 4.5°, which the filter believed to be 2°.)
+    #[test]
+    fn the_initial_covariance_carries_the_tilt_into_the_heading() {
+        let a_true = Rotation3::from_euler_angles(0.3, -0.2, 1.1).into_inner();
+        let g = Vector3::new(0.0, 0.0, STANDARD_G);
+        let c = AhrsConfig::default();
+        for dip_deg in [66.0_f64, -40.0, 5.0] {
+            let dip = dip_deg.to_radians();
+            let base = aligned(&a_true, &g, dip);
+            let a0 = base.q.attitude_matrix();
+            // The accelerometer's vertical tipped about north (a horizontal acceleration east).
+            let tip = 1e-4;
+            let tipped = Rotation3::from_axis_angle(&Vector3::y_axis(), tip) * g;
+            let a1 = aligned(&a_true, &tipped, dip).q.attitude_matrix();
+            // The aligned reference frame's turn, in reference coordinates.
+            let r = a0.transpose() * a1;
+            let phi = Vector3::new(
+                r[(2, 1)] - r[(1, 2)],
+                r[(0, 2)] - r[(2, 0)],
+                r[(1, 0)] - r[(0, 1)],
+            ) * 0.5;
+            let kappa = phi.z / phi.y;
+            assert!(
+                (kappa + dip.tan()).abs() < 1e-3 * (1.0 + dip.tan().abs()),
+                "dip {dip_deg}°: the heading turns by {kappa} × the tip, expected −tan(dip) = {}",
+                -dip.tan()
+            );
+            assert!(phi.x.abs() < 1e-3 * tip, "no turn about east: {phi:?}");
+            // The covariance in the reference frame: the same coupling, and the heading's own σ beside it.
+            let p: Matrix3<f64> = base
+                .covariance
+                .unwrap()
+                .fixed_view::<3, 3>(0, 0)
+                .into_owned();
+            let pe = a0.transpose() * p * a0;
+            let tilt2 = c.init.tilt_sigma_rad.powi(2);
+            assert!((pe[(1, 1)] / tilt2 - 1.0).abs() < 1e-9, "{pe}");
+            assert!((pe[(1, 2)] / (kappa * tilt2) - 1.0).abs() < 1e-3, "{pe}");
+            let heading2 = pe[(2, 2)] - kappa * kappa * tilt2;
+            assert!(
+                (heading2 / c.init.heading_sigma_rad.powi(2) - 1.0).abs() < 1e-2,
+                "{pe}"
+            );
+            assert!(pe[(0, 1)].abs() < 1e-12 && pe[(0, 2)].abs() < 1e-12, "{pe}");
+        }
+    }
 }
