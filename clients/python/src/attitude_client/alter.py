@@ -4,6 +4,7 @@ samples, a gyro that saturates, a magnetometer in other units with a hard-iron o
 
     python -m attitude_client.alter TRIAL.hdf5|TRIAL.csv --out OUT.csv [--rate HZ] [--jitter F] [--hold P]
         [--mag-every K] [--clip RAD_S] [--mag-scale S] [--mag-offset X,Y,Z] [--start-in-motion] [--seed N]
+        [--drop-batches P [--batch N]] [--drop-burst T0,S]... [--fill]
 
 Every alteration keeps the meaning of a sample: sample k's gyro rate covers ``(t_{k−1}, t_k]`` (the convention of
 IMU drivers, VQF and the service), so a lower rate is the mean of the source's rates over each new interval (what a
@@ -25,7 +26,9 @@ interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attit
 * ``--drop-batches P --batch N``: the samples in batches of N, each lost with probability P (what a lossy
   link does to a sender's puts); ``--drop-burst T0,S``: every sample in ``[T0, T0 + S)`` lost (seconds from
   the first sample). Lost samples are gone: the next one comes after a gap (its rate still covers only its
-  own interval).
+  own interval). With ``--fill`` they are not gone but made up: each lost sample's gyro, accelerometer and
+  magnetometer on the line between the real samples on both sides, at its own time (what a converter that
+  resamples onto a uniform grid does across a hole, as RepoIMU's conversion did), so that nothing shows a gap.
 """
 
 from __future__ import annotations
@@ -106,6 +109,7 @@ def alter(
     drop_batches: float = 0.0,
     batch: int = 40,
     drop_bursts: tuple = (),
+    fill: bool = False,
 ) -> dict:
     """The trial altered as the module documentation says (the alterations in that order)."""
     rng = np.random.default_rng(seed)
@@ -153,10 +157,17 @@ def alter(
         for t0, span in drop_bursts:
             keep &= ~((t_rel >= t0) & (t_rel < t0 + span))
         keep[0] = True
+        keep[-1] |= fill
         out["lost"] = int(n - keep.sum())
-        for key in ("gyr", "acc", "mag", "opt_quat", "movement", "t"):
-            if out.get(key) is not None:
-                out[key] = out[key][keep]
+        if fill:
+            t = out["t"]
+            for key in ("gyr", "acc", "mag"):
+                v = out[key]
+                out[key] = np.column_stack([np.interp(t, t[keep], v[keep, j]) for j in range(3)])
+        else:
+            for key in ("gyr", "acc", "mag", "opt_quat", "movement", "t"):
+                if out.get(key) is not None:
+                    out[key] = out[key][keep]
     return out
 
 
@@ -196,6 +207,7 @@ def main() -> int:
     ap.add_argument("--drop-batches", type=float, default=0.0)
     ap.add_argument("--batch", type=int, default=40)
     ap.add_argument("--drop-burst", action="append", default=[], help="T0,SECONDS (repeatable)")
+    ap.add_argument("--fill", action="store_true", help="lost samples made up on the line between the real ones")
     args = ap.parse_args()
     trial = load_trial(args.trial, None)
     offset = tuple(float(x) for x in args.mag_offset.split(","))
@@ -203,7 +215,7 @@ def main() -> int:
         ap.error("--mag-offset takes X,Y,Z")
     bursts = tuple(tuple(float(x) for x in b.split(",")) for b in args.drop_burst)
     out = alter(trial, args.rate, args.jitter, args.hold, args.mag_every, args.clip, args.mag_scale, offset,
-                args.start_in_motion, args.seed, args.drop_batches, args.batch, bursts)
+                args.start_in_motion, args.seed, args.drop_batches, args.batch, bursts, args.fill)
     write_csv(out, args.out)
     print(f"{args.out}: {len(out['t'])} samples, {out['rate_hz']:.2f} Hz")
     return 0

@@ -36,7 +36,7 @@ use crate::attitude::{skew, Quaternion};
 use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
 use crate::sensors::field::{dip_rad, FieldChannel, HeadingObservation};
 use crate::sensors::gravity::{GravityChannel, TiltObservation, UP};
-use crate::sensors::gyro::channel::SATURATION_FRACTION;
+use crate::sensors::gyro::channel::{MIN_HELD_RATE_RAD_S, SATURATION_FRACTION};
 use crate::sensors::gyro::{Gap, GyroChannel, GyroConfig};
 use crate::sensors::heading::{heading_basis, heading_jacobian, heading_residual};
 pub use crate::sensors::ImuSample;
@@ -123,7 +123,67 @@ pub struct Ahrs {
     /// The gap the last sample closed, until the vehicle takes it ([`Ahrs::take_gap`]; not state:
     /// the vehicle reports it at once).
     last_gap: Option<Gap>,
+    /// The last sample's change from the one before (gyro, accelerometer), and the interpolated run
+    /// it continues ([`Interpolation`]; not state, see there).
+    line: Interpolation,
 }
+
+/// A converter or driver that fills missing readings by linear interpolation (onto a uniform grid,
+/// say) makes samples on the line between two real ones: every channel's change from the previous
+/// sample equals the change before it, to rounding. A real sensor's noise never does that on six
+/// axes or more, and a noise-free simulation rarely moves gyro and accelerometer both in straight
+/// lines. Such a run hides what the rate did between its ends, as a gap does. Not state (a
+/// checkpoint does not hold it): after a restore the first two samples cannot be judged.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Interpolation {
+    /// The previous sample's readings, and their changes from the one before.
+    last: Option<[Vector3<f64>; 3]>,
+    change: Option<[Vector3<f64>; 3]>,
+    /// Samples in a row on the line, and their time, s.
+    run: u32,
+    blind_s: f64,
+}
+
+impl Interpolation {
+    /// Takes sample `s`; returns how many samples in a row now lie on the line through the two
+    /// before each (0: this one does not).
+    fn step(&mut self, s: &ImuSample) -> u32 {
+        // (A missing magnetometer reading counts as unchanged: the gyro and the accelerometer decide.)
+        let now = [
+            s.gyr_rad_s,
+            s.acc_m_s2,
+            s.mag.unwrap_or_else(Vector3::zeros),
+        ];
+        let change = self
+            .last
+            .map(|last| std::array::from_fn(|i| now[i] - last[i]));
+        let on_line = match (change, self.change) {
+            (Some(d), Some(before)) => {
+                // Both moved (a held reading, a constant rate or a still accelerometer is not a
+                // line), at a rate a held reading would be judged at, and by the same as before.
+                d[0] != Vector3::zeros()
+                    && d[1] != Vector3::zeros()
+                    && s.gyr_rad_s.norm() > MIN_HELD_RATE_RAD_S
+                    && (0..3).all(|i| {
+                        (d[i] - before[i]).amax() <= LINE_TOLERANCE * now[i].amax().max(1.0)
+                    })
+            }
+            _ => false,
+        };
+        self.last = Some(now);
+        self.change = change;
+        self.run = if on_line {
+            self.run.saturating_add(1)
+        } else {
+            0
+        };
+        self.run
+    }
+}
+
+/// Two changes are the same to this much of the reading (rounding of an interpolation in `f64`, far
+/// below any sensor's resolution).
+const LINE_TOLERANCE: f64 = 1e-9;
 
 /// What [`Ahrs::preprocess`] hands the step.
 struct Preprocessed {
@@ -161,6 +221,7 @@ impl Ahrs {
             counts: AhrsCounts::default(),
             gains: GainCache::default(),
             last_gap: None,
+            line: Interpolation::default(),
         }
     }
 
@@ -334,6 +395,7 @@ impl Ahrs {
             *self = Ahrs::new(c);
         }
         self.preprocess(c, s, &Vector3::zeros(), None, None);
+        self.line.step(s);
         let Phase::Aligning {
             t0_s,
             acc,
@@ -489,6 +551,31 @@ impl Ahrs {
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
         let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, s.t_s - t_from);
+        // A sample on the line through the two before it: the run of such samples is a gap that
+        // someone filled in (`Interpolation`). What it hides grows as a gap's would over the run's
+        // time, in the filter and in the gyro frame (as across a gap).
+        let run = self.line.step(s);
+        let hidden = if run > 0 && gap.is_none() {
+            let own = (s.t_s - t_from).max(0.0);
+            let before = self
+                .gyro
+                .unseen_turn_variance(&gyro_config, self.line.blind_s);
+            self.line.blind_s += own;
+            let after = self
+                .gyro
+                .unseen_turn_variance(&gyro_config, self.line.blind_s);
+            let extra = (after - before).max(0.0);
+            self.gravity.frame_var += extra;
+            if before <= FIT_FORGET_RAD2 && after > FIT_FORGET_RAD2 {
+                if let Some(f) = self.field.as_mut() {
+                    f.forget_fit(&c.mag);
+                }
+            }
+            hidden + extra
+        } else {
+            self.line.blind_s = 0.0;
+            hidden
+        };
         if self.gyro.run == 0 && self.gyro.held > 0 {
             // A held reading turns the gyro frame by the stale rate: what the low-pass holds from
             // before is turned against what comes after by what the catch-up (`held_catch_up`) will
@@ -794,6 +881,80 @@ mod tests {
             }
         }
         panic!("no alignment within 0.2 s");
+    }
+
+    /// A hole filled in on the line between two real samples is seen from its second made-up sample
+    /// to the real one that ends it (the first lies on the line only with the next); a noisy sensor,
+    /// a held reading, a still body and a constant spin are never seen as one.
+    #[test]
+    fn a_filled_hole_is_seen_and_real_samples_are_not() {
+        use rand::SeedableRng;
+        let mut rng = crate::rng::Xoshiro256PlusPlus::seed_from_u64(7);
+        let mut noise = || {
+            let mut n = || crate::rng::standard_normal(&mut rng);
+            Vector3::new(n(), n(), n())
+        };
+        let sample = |k: usize, gyr: Vector3<f64>, acc: Vector3<f64>| ImuSample {
+            t_s: 0.01 * k as f64,
+            gyr_rad_s: gyr,
+            acc_m_s2: acc,
+            mag: Some(Vector3::new(20.0, 0.0, -40.0) + acc * 0.1),
+        };
+        let real: Vec<ImuSample> = (0..40)
+            .map(|k| {
+                let w = Vector3::new(0.5, -0.3, 1.0 + 0.02 * k as f64) + noise() * 0.003;
+                sample(k, w, Vector3::new(0.3, 0.1, 9.8) + noise() * 0.02)
+            })
+            .collect();
+        let mut line = Interpolation::default();
+        assert!(real.iter().all(|s| line.step(s) == 0), "noise is no line");
+        // Samples 20..30 lost and made up on the line between 19 and 30.
+        let mut filled = real.clone();
+        for k in 20..30 {
+            let f = (k - 19) as f64 / 11.0;
+            let (a, b) = (&real[19], &real[30]);
+            filled[k] = ImuSample {
+                t_s: filled[k].t_s,
+                gyr_rad_s: a.gyr_rad_s + (b.gyr_rad_s - a.gyr_rad_s) * f,
+                acc_m_s2: a.acc_m_s2 + (b.acc_m_s2 - a.acc_m_s2) * f,
+                mag: Some(a.mag.unwrap() + (b.mag.unwrap() - a.mag.unwrap()) * f),
+            };
+        }
+        let mut line = Interpolation::default();
+        let runs: Vec<u32> = filled.iter().map(|s| line.step(s)).collect();
+        assert_eq!(&runs[..21], &[0; 21][..], "{runs:?}");
+        assert_eq!(
+            &runs[21..31],
+            &(1..=10).collect::<Vec<u32>>()[..],
+            "{runs:?}"
+        );
+        assert_eq!(runs[31], 0, "{runs:?}");
+        // Held readings, a still body, a constant spin: nothing moves on a line.
+        for s in [
+            sample(0, Vector3::new(0.4, 0.2, 0.1), Vector3::new(0.0, 0.0, 9.8)),
+            sample(0, Vector3::zeros(), Vector3::new(0.0, 0.0, 9.8)),
+        ] {
+            let mut line = Interpolation::default();
+            for k in 0..10 {
+                assert_eq!(
+                    line.step(&ImuSample {
+                        t_s: 0.01 * k as f64,
+                        ..s
+                    }),
+                    0
+                );
+            }
+        }
+        let mut line = Interpolation::default();
+        for k in 0..10 {
+            // A rate ramp about the vertical with the accelerometer still (a noise-free spin-up).
+            let s = sample(
+                k,
+                Vector3::new(0.0, 0.0, 0.1 * k as f64),
+                Vector3::new(0.0, 0.0, 9.8),
+            );
+            assert_eq!(line.step(&ImuSample { mag: None, ..s }), 0);
+        }
     }
 
     /// The alignment's heading comes from the field across the accelerometer's vertical, so a

@@ -90,6 +90,7 @@ impl Ahrs {
             tilt_inconsistent_s: s.tilt_inconsistent_s,
             heading_inconsistent_s: s.heading_inconsistent_s,
             last_gap: None,
+            line: Default::default(),
             counts: s.counts,
             gains: Default::default(),
         })

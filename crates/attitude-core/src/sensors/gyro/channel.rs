@@ -159,22 +159,10 @@ impl GyroChannel {
         }
         let prev = self.previous?;
         let blind = dt_s - self.interval_s;
-        // The rate's own time scale, σ_ω / σ_ω̇ (a rate that swings with period P has P/2π): how long
-        // it keeps its value before it turns.
-        let tau = if self.change_ms > 0.0 {
-            ((self.rate_ms / self.change_ms).sqrt() * self.interval_s)
-                .clamp(self.interval_s, MAX_RATE_CORRELATION_S)
-        } else {
-            MAX_RATE_CORRELATION_S
-        };
+        let tau = self.rate_time_scale();
         let decay = tau * (1.0 - (-blind / (2.0 * tau)).exp());
         let bridge = (prev + gyr) * (decay / blind);
-        // What the rate could have turned meanwhile: coherently (σ_ω T) over as long as it keeps its
-        // sign, a quarter period (π/2 · τ, 2τ_c below), and as a random walk beyond. The decaying
-        // model's own variance, 2σ²τ(T − 2τ(1 − e^{−T/2τ})), is far smaller over half a swing: a
-        // 0.14 s gap in a 4 Hz shake at 300°/s left 36° of error under an 11° σ.
-        let coherent = (std::f64::consts::FRAC_PI_2 * tau).min(MAX_RATE_CORRELATION_S);
-        let variance = c.gap_turn_factor.powi(2) * self.rate_ms * blind * blind.min(2.0 * coherent);
+        let variance = self.unseen_turn_variance(c, blind);
         self.gaps += 1;
         self.blind_s += blind;
         Some(Gap {
@@ -182,6 +170,30 @@ impl GyroChannel {
             bridge_rad_s: bridge,
             variance_rad2: variance,
         })
+    }
+
+    /// The rate's own time scale, σ_ω / σ_ω̇ (a rate that swings with period P has P/2π): how long
+    /// it keeps its value before it turns.
+    fn rate_time_scale(&self) -> f64 {
+        if self.change_ms > 0.0 {
+            ((self.rate_ms / self.change_ms).sqrt() * self.interval_s)
+                .clamp(self.interval_s, MAX_RATE_CORRELATION_S)
+        } else {
+            MAX_RATE_CORRELATION_S
+        }
+    }
+
+    /// The attitude variance per axis (rad²) of `blind_s` seconds whose rates nobody saw (a gap, or
+    /// a run of readings made up between two real ones), at the rates seen before: what such a rate
+    /// could turn, coherently (σ_ω T) over as long as it keeps its sign, a quarter period (π/2 · τ,
+    /// 2τ_c below), and as a random walk beyond. (A model that decays towards rest has a far
+    /// smaller variance over half a swing, 2σ²τ(T − 2τ(1 − e^{−T/2τ})): a 0.14 s gap in a 4 Hz shake
+    /// at 300°/s left 36° of error under an 11° σ.)
+    pub fn unseen_turn_variance(&self, c: &GyroConfig, blind_s: f64) -> f64 {
+        let blind = blind_s.max(0.0);
+        let coherent =
+            (std::f64::consts::FRAC_PI_2 * self.rate_time_scale()).min(MAX_RATE_CORRELATION_S);
+        c.gap_turn_factor.powi(2) * self.rate_ms * blind * blind.min(2.0 * coherent)
     }
 
     /// Takes sample `gyr` over an interval of `dt_s`; returns the attitude variance per axis (rad²)
