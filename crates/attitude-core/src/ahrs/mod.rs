@@ -126,6 +126,8 @@ pub struct Ahrs {
     /// The last sample's change from the one before (gyro, accelerometer), and the interpolated run
     /// it continues ([`Interpolation`]; not state, see there).
     line: Interpolation,
+    /// The magnetometer's last new reading, for the repeats of a slower one ([`MagHold`]; not state).
+    mag_hold: MagHold,
 }
 
 /// A converter or driver that fills missing readings by linear interpolation (onto a uniform grid,
@@ -181,6 +183,44 @@ impl Interpolation {
     }
 }
 
+/// A magnetometer slower than the gyro, whose driver repeats its last reading with every sample
+/// until a new one comes (bit for bit: a real reading's noise always changes some bit while the
+/// body turns): the repeated reading was taken when the body pointed elsewhere. It is turned by the
+/// rotation of the gyro frame since the reading was new (the body-fixed offset left where it is),
+/// so the field channel and the heading see where the field is now, not where it was. Not state:
+/// after a restore the first repeat is taken as new.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct MagHold {
+    /// The last raw reading, and the last new one as used (delay compensated) with the gyro
+    /// frame's attitude matrix then.
+    last_raw: Option<Vector3<f64>>,
+    fresh: Option<(Vector3<f64>, Matrix3<f64>)>,
+}
+
+impl MagHold {
+    /// The reading to use for `raw` (`None`: none this sample), with the gyro frame's attitude
+    /// matrix now and the body-fixed offset; `fresh` prepares a new reading.
+    fn reading(
+        &mut self,
+        raw: Option<Vector3<f64>>,
+        a_gyro: &Matrix3<f64>,
+        offset: &Vector3<f64>,
+        fresh: impl FnOnce(&Vector3<f64>) -> Vector3<f64>,
+    ) -> Option<Vector3<f64>> {
+        let raw = raw?;
+        let held = self.last_raw == Some(raw);
+        self.last_raw = Some(raw);
+        match (held, self.fresh) {
+            (true, Some((m0, a0))) => Some(a_gyro * (a0.transpose() * (m0 - offset)) + offset),
+            _ => {
+                let m = fresh(&raw);
+                self.fresh = Some((m, *a_gyro));
+                Some(m)
+            }
+        }
+    }
+}
+
 /// Two changes are the same to this much of the reading (rounding of an interpolation in `f64`, far
 /// below any sensor's resolution).
 const LINE_TOLERANCE: f64 = 1e-9;
@@ -222,6 +262,7 @@ impl Ahrs {
             gains: GainCache::default(),
             last_gap: None,
             line: Interpolation::default(),
+            mag_hold: MagHold::default(),
         }
     }
 
@@ -656,11 +697,16 @@ impl Ahrs {
             self.field = learn_field(&filter.estimate(), &mag);
         }
         let omega = s.gyr_rad_s - bias;
-        let mag = s.mag.map(|m| {
+        let offset = self
+            .field
+            .as_ref()
+            .map_or_else(Vector3::zeros, |f| f.offset());
+        let mag = self.mag_hold.reading(s.mag, &a_gyro, &offset, |m| {
             // Turned forward over the magnetometer's delay: the body turned by ω δ since it sampled,
             // and a body-frame vector seen from it turns the other way, Ȧ = −[ω×] A.
-            m - omega.cross(&m) * c.mag.delay_s
+            m - omega.cross(m) * c.mag.delay_s
         });
+        let fit_reading = self.mag_hold.fresh.unwrap_or((Vector3::zeros(), a_gyro));
         if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
             if let (Some(up_b), Some(up_g)) = (self.gravity.up_body(&a_gyro), up_gyro) {
                 let rate = self.rest.gyr_lowpass() - bias;
@@ -669,7 +715,7 @@ impl Ahrs {
                     &mag,
                     &up_b,
                     &up_g,
-                    &a_gyro,
+                    (&fit_reading.0, &fit_reading.1),
                     rate.norm(),
                     self.gravity.frame_var.sqrt(),
                     dt,
@@ -881,6 +927,39 @@ mod tests {
             }
         }
         panic!("no alignment within 0.2 s");
+    }
+
+    /// A repeated reading of a slower magnetometer is the field where it was when the reading was
+    /// new: turned by the gyro frame's rotation since, with the body-fixed offset left in place, it
+    /// is the reading the body would give now. A new reading is taken as it is (with the delay's turn).
+    #[test]
+    fn a_repeated_magnetometer_reading_is_turned_to_now() {
+        let field_g = Vector3::new(18.0, 5.0, -42.0);
+        let offset = Vector3::new(3.0, -7.0, 2.0);
+        let a_at = |k: usize| {
+            Rotation3::from_scaled_axis(Vector3::new(0.2, -0.1, 1.0) * (0.05 * k as f64))
+                .into_inner()
+        };
+        let mut hold = MagHold::default();
+        let raw = a_at(0) * field_g + offset;
+        let delayed = |m: &Vector3<f64>| m * 1.0;
+        assert_eq!(
+            hold.reading(Some(raw), &a_at(0), &offset, delayed),
+            Some(raw)
+        );
+        for k in 1..6 {
+            let now = hold.reading(Some(raw), &a_at(k), &offset, delayed).unwrap();
+            let truth = a_at(k) * field_g + offset;
+            assert!((now - truth).norm() < 1e-9, "{k}: {now} against {truth}");
+            assert!((raw - truth).norm() > 0.5, "the reading did go stale");
+        }
+        // A new reading resets the hold; no reading, nothing.
+        let fresh = a_at(6) * field_g + offset + Vector3::new(0.01, 0.0, 0.0);
+        assert_eq!(
+            hold.reading(Some(fresh), &a_at(6), &offset, delayed),
+            Some(fresh)
+        );
+        assert_eq!(hold.reading(None, &a_at(7), &offset, delayed), None);
     }
 
     /// A hole filled in on the line between two real samples is seen from its second made-up sample

@@ -91,6 +91,7 @@ impl Ahrs {
             heading_inconsistent_s: s.heading_inconsistent_s,
             last_gap: None,
             line: Default::default(),
+            mag_hold: Default::default(),
             counts: s.counts,
             gains: Default::default(),
         })

@@ -235,7 +235,7 @@ impl FieldChannel {
             mag,
             up_body,
             up_gyro,
-            a_gyro,
+            (mag, a_gyro),
             rate_rad_s,
             up_sigma_rad,
             dt_s,
@@ -243,7 +243,10 @@ impl FieldChannel {
         )
     }
 
-    /// [`FieldChannel::update`] with the gains of the interval given (`crate::ahrs::gains`). Returns the
+    /// [`FieldChannel::update`] with the gains of the interval given (`crate::ahrs::gains`), and the
+    /// reading the hard-iron fit takes with the gyro frame's attitude matrix when it was taken (a
+    /// repeated reading of a slower magnetometer gives the fit the reading when it was new, not the
+    /// reading turned to now: the turn would carry the offset, which does not turn). Returns the
     /// heading change (rad) that a newly accepted offset makes to this reading, when one was accepted:
     /// the estimate's heading may be wrong by that much.
     #[allow(clippy::too_many_arguments)]
@@ -253,7 +256,7 @@ impl FieldChannel {
         mag: &Vector3<f64>,
         up_body: &Vector3<f64>,
         up_gyro: &Vector3<f64>,
-        a_gyro: &Matrix3<f64>,
+        (fit_mag, a_gyro): (&Vector3<f64>, &Matrix3<f64>),
         rate_rad_s: f64,
         up_sigma_rad: f64,
         dt_s: f64,
@@ -263,7 +266,7 @@ impl FieldChannel {
         self.since_update_s += dt;
         self.since_solve_s += dt;
         if c.hard_iron.enabled {
-            self.fit.add(mag, a_gyro, g.fit_forget, g.fit_recent);
+            self.fit.add(fit_mag, a_gyro, g.fit_forget, g.fit_recent);
         }
         let m = mag - self.offset;
         let n = m.norm();
