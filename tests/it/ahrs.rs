@@ -829,14 +829,30 @@ fn the_same_input_gives_the_same_output() {
 }
 
 /// The pipeline's state is plain data: a vehicle checkpointed mid-recording and restored continues
-/// exactly as the one that was not (with the particle filter, particles and RNG included).
+/// exactly as the one that was not (with the particle filter, particles and RNG included, and the
+/// pipeline's memory of a slower magnetometer's repeats and of a filled hole it is in the middle of).
 #[test]
 fn a_checkpoint_continues_exactly() {
     use attitude_service::service::persist;
     let (f, p) = imu_preset();
     let config = with_filter(f, "qpf:average", 200);
     let mut imu = Imu::new(16, Quaternion::IDENTITY, Vector3::zeros());
-    let steps = imu.run(0.0, 2000, |t| turning(t) * 0.4, still, |_| field_enu());
+    let mut steps = imu.run(0.0, 2000, |t| turning(t) * 0.4, still, |_| field_enu());
+    // A magnetometer four times slower than the gyro, its driver repeating the last reading, and a
+    // hole filled in on a line across the checkpoint: the pipeline's memory of both is state too.
+    for k in 0..steps.len() {
+        if k % 4 != 0 {
+            steps[k].sample.mag = steps[k - 1].sample.mag;
+        }
+    }
+    let (a0, a1) = (steps[995].sample, steps[1006].sample);
+    for (k, step) in steps.iter_mut().enumerate().take(1006).skip(996) {
+        let f = (k - 995) as f64 / 11.0;
+        let line = |x: &Vector3<f64>, y: &Vector3<f64>| x + (y - x) * f;
+        step.sample.gyr_rad_s = line(&a0.gyr_rad_s, &a1.gyr_rad_s);
+        step.sample.acc_m_s2 = line(&a0.acc_m_s2, &a1.acc_m_s2);
+        step.sample.mag = Some(line(&a0.mag.unwrap(), &a1.mag.unwrap()));
+    }
     let mut a = VehicleState::new("ck", config.clone());
     feed(&mut a, &p, &steps[..1000]);
     let bytes = persist::encode(&a, &Default::default()).unwrap();

@@ -10,6 +10,7 @@
 //! never changes by accident.
 
 use super::SavedCounters;
+use crate::ahrs::repeats::{Interpolation, MagHold};
 use crate::ahrs::rest::RestDetector;
 use crate::ahrs::{AhrsCounts, AhrsState, NoiseMeter, Phase, SensorSheet};
 use crate::attitude::{Grp, Quaternion};
@@ -645,6 +646,22 @@ impl Saved for Phase {
     }
 }
 
+saved!(InterpolationV7 for Interpolation {
+    last_gyr: Option<Vector3<f64>>,
+    last_acc: Option<Vector3<f64>>,
+    last_mag: Option<Vector3<f64>>,
+    change_gyr: Option<Vector3<f64>>,
+    change_acc: Option<Vector3<f64>>,
+    change_mag: Option<Vector3<f64>>,
+    run: u32,
+    blind_s: f64,
+});
+saved!(MagHoldV7 for MagHold {
+    last_raw: Option<Vector3<f64>>,
+    fresh: Option<Vector3<f64>>,
+    fresh_frame: Option<Matrix3<f64>>,
+});
+
 saved!(AhrsV5 for AhrsState {
     phase: Phase,
     t_s: Option<f64>,
@@ -660,6 +677,8 @@ saved!(AhrsV5 for AhrsState {
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
     counts: AhrsCounts,
+    line: Interpolation,
+    mag_hold: MagHold,
 });
 
 // The vehicle.

@@ -29,7 +29,10 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// 6: the raw-IMU pipeline holds the gyro channel (saturation, gaps), the datasheet, the measured
 /// noise and the field reference's confirmation; a vehicle's configuration its datasheet (5 cannot
 /// say them: refused).
-pub const VERSION: u32 = 6;
+/// 7: the raw-IMU pipeline holds what it recognises of a driver's repeats and a converter's filled
+/// holes (`crate::ahrs::repeats`: the last samples' changes, a slower magnetometer's last new reading
+/// and its frame; 6 cannot say them: refused).
+pub const VERSION: u32 = 7;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 

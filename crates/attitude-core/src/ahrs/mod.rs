@@ -28,6 +28,7 @@
 
 mod config;
 pub mod gains;
+pub mod repeats;
 pub mod rest;
 pub mod sheet;
 mod state;
@@ -36,7 +37,7 @@ use crate::attitude::{skew, Quaternion};
 use crate::filters::{AttitudeFilter, Estimate, FilterError, InitialState};
 use crate::sensors::field::{dip_rad, FieldChannel, HeadingObservation};
 use crate::sensors::gravity::{GravityChannel, TiltObservation, UP};
-use crate::sensors::gyro::channel::{MIN_HELD_RATE_RAD_S, SATURATION_FRACTION};
+use crate::sensors::gyro::channel::SATURATION_FRACTION;
 use crate::sensors::gyro::{Gap, GyroChannel, GyroConfig};
 use crate::sensors::heading::{heading_basis, heading_jacobian, heading_residual};
 pub use crate::sensors::ImuSample;
@@ -44,6 +45,7 @@ use crate::sensors::VectorObservation;
 pub use config::{AhrsConfig, InitConfig, RecoveryConfig, RestConfig};
 use gains::{GainCache, IntervalGains};
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
+use repeats::{Interpolation, MagHold};
 use rest::RestDetector;
 use sheet::STANDARD_G;
 pub use sheet::{MeasuredNoise, NoiseMeter, SensorSheet};
@@ -123,107 +125,11 @@ pub struct Ahrs {
     /// The gap the last sample closed, until the vehicle takes it ([`Ahrs::take_gap`]; not state:
     /// the vehicle reports it at once).
     last_gap: Option<Gap>,
-    /// The last sample's change from the one before (gyro, accelerometer), and the interpolated run
-    /// it continues ([`Interpolation`]; not state, see there).
+    /// The last samples' changes, for a hole filled in on a line ([`Interpolation`]), and the
+    /// magnetometer's last new reading, for the repeats of a slower one ([`MagHold`]).
     line: Interpolation,
-    /// The magnetometer's last new reading, for the repeats of a slower one ([`MagHold`]; not state).
     mag_hold: MagHold,
 }
-
-/// A converter or driver that fills missing readings by linear interpolation (onto a uniform grid,
-/// say) makes samples on the line between two real ones: every channel's change from the previous
-/// sample equals the change before it, to rounding. A real sensor's noise never does that on six
-/// axes or more, and a noise-free simulation rarely moves gyro and accelerometer both in straight
-/// lines. Such a run hides what the rate did between its ends, as a gap does. Not state (a
-/// checkpoint does not hold it): after a restore the first two samples cannot be judged.
-#[derive(Clone, Debug, Default, PartialEq)]
-struct Interpolation {
-    /// The previous sample's readings, and their changes from the one before.
-    last: Option<[Vector3<f64>; 3]>,
-    change: Option<[Vector3<f64>; 3]>,
-    /// Samples in a row on the line, and their time, s.
-    run: u32,
-    blind_s: f64,
-}
-
-impl Interpolation {
-    /// Takes sample `s`; returns how many samples in a row now lie on the line through the two
-    /// before each (0: this one does not).
-    fn step(&mut self, s: &ImuSample) -> u32 {
-        // (A missing magnetometer reading counts as unchanged: the gyro and the accelerometer decide.)
-        let now = [
-            s.gyr_rad_s,
-            s.acc_m_s2,
-            s.mag.unwrap_or_else(Vector3::zeros),
-        ];
-        let change = self
-            .last
-            .map(|last| std::array::from_fn(|i| now[i] - last[i]));
-        let on_line = match (change, self.change) {
-            (Some(d), Some(before)) => {
-                // Both moved (a held reading, a constant rate or a still accelerometer is not a
-                // line), at a rate a held reading would be judged at, and by the same as before.
-                d[0] != Vector3::zeros()
-                    && d[1] != Vector3::zeros()
-                    && s.gyr_rad_s.norm() > MIN_HELD_RATE_RAD_S
-                    && (0..3).all(|i| {
-                        (d[i] - before[i]).amax() <= LINE_TOLERANCE * now[i].amax().max(1.0)
-                    })
-            }
-            _ => false,
-        };
-        self.last = Some(now);
-        self.change = change;
-        self.run = if on_line {
-            self.run.saturating_add(1)
-        } else {
-            0
-        };
-        self.run
-    }
-}
-
-/// A magnetometer slower than the gyro, whose driver repeats its last reading with every sample
-/// until a new one comes (bit for bit: a real reading's noise always changes some bit while the
-/// body turns): the repeated reading was taken when the body pointed elsewhere. It is turned by the
-/// rotation of the gyro frame since the reading was new (the body-fixed offset left where it is),
-/// so the field channel and the heading see where the field is now, not where it was. Not state:
-/// after a restore the first repeat is taken as new.
-#[derive(Clone, Debug, Default, PartialEq)]
-struct MagHold {
-    /// The last raw reading, and the last new one as used (delay compensated) with the gyro
-    /// frame's attitude matrix then.
-    last_raw: Option<Vector3<f64>>,
-    fresh: Option<(Vector3<f64>, Matrix3<f64>)>,
-}
-
-impl MagHold {
-    /// The reading to use for `raw` (`None`: none this sample), with the gyro frame's attitude
-    /// matrix now and the body-fixed offset; `fresh` prepares a new reading.
-    fn reading(
-        &mut self,
-        raw: Option<Vector3<f64>>,
-        a_gyro: &Matrix3<f64>,
-        offset: &Vector3<f64>,
-        fresh: impl FnOnce(&Vector3<f64>) -> Vector3<f64>,
-    ) -> Option<Vector3<f64>> {
-        let raw = raw?;
-        let held = self.last_raw == Some(raw);
-        self.last_raw = Some(raw);
-        match (held, self.fresh) {
-            (true, Some((m0, a0))) => Some(a_gyro * (a0.transpose() * (m0 - offset)) + offset),
-            _ => {
-                let m = fresh(&raw);
-                self.fresh = Some((m, *a_gyro));
-                Some(m)
-            }
-        }
-    }
-}
-
-/// Two changes are the same to this much of the reading (rounding of an interpolation in `f64`, far
-/// below any sensor's resolution).
-const LINE_TOLERANCE: f64 = 1e-9;
 
 /// What [`Ahrs::preprocess`] hands the step.
 struct Preprocessed {
@@ -706,7 +612,10 @@ impl Ahrs {
             // and a body-frame vector seen from it turns the other way, Ȧ = −[ω×] A.
             m - omega.cross(m) * c.mag.delay_s
         });
-        let fit_reading = self.mag_hold.fresh.unwrap_or((Vector3::zeros(), a_gyro));
+        let fit_reading = self
+            .mag_hold
+            .as_taken()
+            .unwrap_or((Vector3::zeros(), a_gyro));
         if let (Some(mag), Some(field), true) = (mag, self.field.as_mut(), c.mag.enabled) {
             if let (Some(up_b), Some(up_g)) = (self.gravity.up_body(&a_gyro), up_gyro) {
                 let rate = self.rest.gyr_lowpass() - bias;

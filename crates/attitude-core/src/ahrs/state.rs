@@ -1,6 +1,7 @@
 //! The pipeline's state as plain data: what a checkpoint saves and restores (the file format is the
 //! service's `persist` module's; a field added here is a compile error there).
 
+use super::repeats::{Interpolation, MagHold};
 use super::rest::RestDetector;
 use super::sheet::{NoiseMeter, SensorSheet};
 use super::{Ahrs, AhrsCounts};
@@ -41,6 +42,8 @@ pub struct AhrsState {
     pub tilt_inconsistent_s: f64,
     pub heading_inconsistent_s: f64,
     pub counts: AhrsCounts,
+    pub line: Interpolation,
+    pub mag_hold: MagHold,
 }
 
 impl Ahrs {
@@ -61,6 +64,8 @@ impl Ahrs {
             tilt_inconsistent_s: self.tilt_inconsistent_s,
             heading_inconsistent_s: self.heading_inconsistent_s,
             counts: self.counts.clone(),
+            line: self.line.clone(),
+            mag_hold: self.mag_hold.clone(),
         }
     }
 
@@ -90,8 +95,8 @@ impl Ahrs {
             tilt_inconsistent_s: s.tilt_inconsistent_s,
             heading_inconsistent_s: s.heading_inconsistent_s,
             last_gap: None,
-            line: Default::default(),
-            mag_hold: Default::default(),
+            line: s.line,
+            mag_hold: s.mag_hold,
             counts: s.counts,
             gains: Default::default(),
         })

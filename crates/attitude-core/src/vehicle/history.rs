@@ -18,13 +18,13 @@
 //! late sample itself is counted when it is fused.
 //!
 //! **Memory.** A kept state is the filter's plain-data state ([`FilterState`]) and the rest of the
-//! vehicle's processing state: about 2.6 kB for the MEKF or USQUE (4.6 kB with the IMU pipeline of a
+//! vehicle's processing state: about 2.6 kB for the MEKF or USQUE (5.3 kB with the IMU pipeline of a
 //! vehicle fed `P/V/imu`), plus 64 bytes per particle for the QPF (the cloud). A state is kept every
 //! `max_lag / KEPT_PER_LAG` of sample time, so at most `KEPT_PER_LAG + 2` are held (and the last one
 //! dropped, whose allocations the next one kept reuses, counted with them); the log holds the
 //! samples of the lag and one interval more (112 bytes a gyro or IMU sample). A star-tracker
 //! spacecraft (10 Hz gyro, 1 Hz sets, the default 2 s lag) holds under 30 kB with a Kalman filter,
-//! about 540 kB with a QPF of 1000 particles, 5.2 MB with 10⁴; a 100 Hz IMU vehicle about 71 kB
+//! about 540 kB with a QPF of 1000 particles, 5.2 MB with 10⁴; a 100 Hz IMU vehicle about 78 kB
 //! (`tests.rs` pins these). Everything together is capped at `time.history_bytes` per vehicle
 //! (default 8 MiB): states that do not fit as often are kept more rarely, down to one per lag; when
 //! even that exceeds the cap the oldest go first (the history covers less than the lag, and a sample
