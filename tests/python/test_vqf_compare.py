@@ -33,15 +33,19 @@ def test_mekf_and_vqf_side_by_side_on_broad():
     assert report["mekf_samples_per_s"] > 0 and report["vqf_samples_per_s"] > 0, report
     assert report["ratio"] == pytest.approx(report["mekf_samples_per_s"] / report["vqf_samples_per_s"], rel=1e-12)
     # Accuracy on the excerpt (movement phases, degrees). Deterministic: the same samples through the same code
-    # give the same figures. Measured: ours 0.707 with the preset of issue 26 (0.836 before it), VQF 1.179 aligned and 0.889
-    # unaligned. Ours within ±10% of its figure (an RMSE 1.5× worse, 1.25°, fails; so does one of 0.889, VQF's)
+    # give the same figures. Measured: ours 0.813 (0.707 before the alignment's initial heading covariance took the
+    # tilt's error into the heading, 0.836 before the preset of issue 26), VQF 1.179 aligned and 0.889 unaligned.
+    # Aligned here means on the heading of the opening rest: ours now settles at rest on the magnetometer read
+    # against the refined vertical, and this recording's field in motion is not its field at rest (docs/broad.md),
+    # so the rest's heading offset moved (-0.54° -> +0.12°) while the unaligned total improved (0.81° -> 0.77°).
+    # Ours within ±8% of its figure (an RMSE 1.5× worse, 1.22°, fails; so does one of 0.889, VQF's)
     # and at most VQF's unaligned one (as tests/python/test_broad_replay.py asks of this excerpt); VQF's within
     # ±5% of both of its figures (the data, the metric and the heading alignment are read right: the aligned and
     # unaligned figures are 33% apart).
     errors = report["errors_deg"]
     mekf, vqf = report["mekf_total_rmse_deg"], report["vqf_total_rmse_deg"]
     assert mekf == errors["mekf"]["aligned"]["total"] and vqf == errors["vqf"]["aligned"]["total"], report
-    assert 0.707 / 1.1 <= mekf <= 0.707 * 1.1, report
+    assert 0.813 / 1.08 <= mekf <= 0.813 * 1.08, report
     assert mekf <= errors["vqf"]["unaligned"]["total"], report
     assert vqf == pytest.approx(1.179, rel=0.05), report
     assert errors["vqf"]["unaligned"]["total"] == pytest.approx(0.889, rel=0.05), report
