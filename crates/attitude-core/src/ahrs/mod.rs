@@ -259,6 +259,19 @@ impl Ahrs {
         Some((s.gyr_rad_s - prev) * (0.5 * run_s))
     }
 
+    /// The gyro frame has turned by what nobody saw (a gap's bridge, a filled hole), its variance
+    /// grown from `before` to `after` (rad² per axis): what the low-pass and the hard-iron fit hold
+    /// from before is turned against what comes after by as much, and the fit forgets what it held
+    /// once that may exceed 1° (`FIT_FORGET_RAD2`).
+    fn turned_unseen(&mut self, c: &AhrsConfig, before: f64, after: f64) {
+        self.gravity.frame_var += (after - before).max(0.0);
+        if before <= FIT_FORGET_RAD2 && after > FIT_FORGET_RAD2 {
+            if let Some(f) = self.field.as_mut() {
+                f.forget_fit(&c.mag);
+            }
+        }
+    }
+
     /// The preprocessing every sample gets (alignment or not): gyro frame, rest, gravity low-pass.
     /// `gap`: the gap before the sample, bridged in the gyro frame as in the filter.
     fn preprocess(
@@ -342,7 +355,7 @@ impl Ahrs {
             *self = Ahrs::new(c);
         }
         self.preprocess(c, s, &Vector3::zeros(), None, None);
-        self.line.step(s);
+        self.line.step(s, 0.0, false);
         let Phase::Aligning {
             t0_s,
             acc,
@@ -483,12 +496,7 @@ impl Ahrs {
         if let Some(g) = &gap {
             // The gyro frame crossed the gap on the bridge too: what the low-pass and the fit hold
             // from before it is turned against what comes after by as much as the bridge is off.
-            self.gravity.frame_var += g.variance_rad2;
-            if g.variance_rad2 > FIT_FORGET_RAD2 {
-                if let Some(f) = self.field.as_mut() {
-                    f.forget_fit(&c.mag);
-                }
-            }
+            self.turned_unseen(c, 0.0, g.variance_rad2);
             self.counts.gaps = self.gyro.gaps;
             self.counts.blind_s = self.gyro.blind_s;
             self.last_gap = Some(*g);
@@ -501,27 +509,14 @@ impl Ahrs {
         // A sample on the line through the two before it: the run of such samples is a gap that
         // someone filled in (`Interpolation`). What it hides grows as a gap's would over the run's
         // time, in the filter and in the gyro frame (as across a gap).
-        let run = self.line.step(s);
-        let hidden = if run > 0 && gap.is_none() {
-            let own = (s.t_s - t_from).max(0.0);
-            let before = self
-                .gyro
-                .unseen_turn_variance(&gyro_config, self.line.blind_s);
-            self.line.blind_s += own;
-            let after = self
-                .gyro
-                .unseen_turn_variance(&gyro_config, self.line.blind_s);
-            let extra = (after - before).max(0.0);
-            self.gravity.frame_var += extra;
-            if before <= FIT_FORGET_RAD2 && after > FIT_FORGET_RAD2 {
-                if let Some(f) = self.field.as_mut() {
-                    f.forget_fit(&c.mag);
-                }
+        let hidden = match self.line.step(s, s.t_s - t_from, gap.is_some()) {
+            Some((was, now)) => {
+                let before = self.gyro.unseen_turn_variance(&gyro_config, was);
+                let after = self.gyro.unseen_turn_variance(&gyro_config, now);
+                self.turned_unseen(c, before, after);
+                hidden + (after - before).max(0.0)
             }
-            hidden + extra
-        } else {
-            self.line.blind_s = 0.0;
-            hidden
+            None => hidden,
         };
         if self.gyro.run == 0 && self.gyro.held > 0 {
             // A held reading turns the gyro frame by the stale rate: what the low-pass holds from
@@ -895,7 +890,10 @@ mod tests {
             })
             .collect();
         let mut line = Interpolation::default();
-        assert!(real.iter().all(|s| line.step(s) == 0), "noise is no line");
+        assert!(
+            real.iter().all(|s| line.step(s, 0.01, false).is_none()),
+            "noise is no line"
+        );
         // Samples 20..30 lost and made up on the line between 19 and 30.
         let mut filled = real.clone();
         for k in 20..30 {
@@ -909,7 +907,13 @@ mod tests {
             };
         }
         let mut line = Interpolation::default();
-        let runs: Vec<u32> = filled.iter().map(|s| line.step(s)).collect();
+        let runs: Vec<u32> = filled
+            .iter()
+            .map(|s| {
+                line.step(s, 0.01, false);
+                line.run
+            })
+            .collect();
         assert_eq!(&runs[..21], &[0; 21][..], "{runs:?}");
         assert_eq!(
             &runs[21..31],
@@ -924,13 +928,11 @@ mod tests {
         ] {
             let mut line = Interpolation::default();
             for k in 0..10 {
-                assert_eq!(
-                    line.step(&ImuSample {
-                        t_s: 0.01 * k as f64,
-                        ..s
-                    }),
-                    0
-                );
+                let s = ImuSample {
+                    t_s: 0.01 * k as f64,
+                    ..s
+                };
+                assert_eq!(line.step(&s, 0.01, false), None);
             }
         }
         let mut line = Interpolation::default();
@@ -941,7 +943,7 @@ mod tests {
                 Vector3::new(0.0, 0.0, 0.1 * k as f64),
                 Vector3::new(0.0, 0.0, 9.8),
             );
-            assert_eq!(line.step(&ImuSample { mag: None, ..s }), 0);
+            assert_eq!(line.step(&ImuSample { mag: None, ..s }, 0.01, false), None);
         }
     }
 

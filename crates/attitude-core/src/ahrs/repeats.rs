@@ -35,9 +35,10 @@ pub struct Interpolation {
 }
 
 impl Interpolation {
-    /// Takes sample `s`; returns how many samples in a row now lie on the line through the two
-    /// before each (0: this one does not).
-    pub fn step(&mut self, s: &ImuSample) -> u32 {
+    /// Takes sample `s` over its own interval `dt_s` (after a gap, if `gap`: the gap model has it).
+    /// When it lies on the line through the two before it, returns the run's unseen time before
+    /// and with it, s; `run` counts the samples in a row on the line.
+    pub fn step(&mut self, s: &ImuSample, dt_s: f64, gap: bool) -> Option<(f64, f64)> {
         // (A missing magnetometer reading counts as unchanged: the gyro and the accelerometer decide.)
         let now = [
             s.gyr_rad_s,
@@ -64,12 +65,20 @@ impl Interpolation {
         };
         [self.last_gyr, self.last_acc, self.last_mag] = now.map(Some);
         [self.change_gyr, self.change_acc, self.change_mag] = change;
-        self.run = if on_line {
-            self.run.saturating_add(1)
-        } else {
-            0
-        };
-        self.run
+        if !on_line {
+            self.run = 0;
+            self.blind_s = 0.0;
+            return None;
+        }
+        self.run = self.run.saturating_add(1);
+        if gap {
+            // (The gap model covers this interval; the run's time starts again after it.)
+            self.blind_s = 0.0;
+            return None;
+        }
+        let was = self.blind_s;
+        self.blind_s += dt_s.max(0.0);
+        Some((was, self.blind_s))
     }
 }
 
