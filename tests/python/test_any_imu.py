@@ -61,19 +61,26 @@ ALTERATIONS = {
 #:
 #: | alteration | total / VQF | tilt in 99% | 3-axis in 99% | tilt NEES median |
 #: |---|---|---|---|---|
-#: | r25    | 1.23 / 0.71 | 0.983 / 0.968 | 0.986 / 0.980 | 0.21 / 1.42 |
-#: | r40    | 1.20 / 0.52 | 0.997 / 0.977 | 0.999 / 0.991 | 0.20 / 1.61 |
-#: | r50    | 1.14 / 0.43 | 1.000 / 0.982 | 1.000 / 0.993 | 0.22 / 1.68 |
-#: | r100   | 1.05 / 0.26 | 1.000 / 0.989 | 1.000 / 0.997 | 0.48 / 2.06 |
-#: | jitter | 0.17 / 0.10 | 0.981 / 0.995 | 0.992 / 0.998 | 0.96 / 1.86 |
-#: | hold   | 0.28 / 0.28 | 1.000 / 1.000 | 1.000 / 1.000 | 0.16 / 0.85 |
-#: | clip4  | 1.29 / 0.87 | 0.996 / 1.000 | 0.959 / 1.000 | 0.14 / 0.06 |
-#: | motion | 0.60 / 0.35 | 1.000 / 1.000 | 1.000 / 1.000 | 0.23 / 0.30 |
-#: | nT     | 0.91 / 0.27 | 0.996 / 0.993 | 1.000 / 0.997 | 1.18 / 1.86 |
-#: | mag10  | 0.81 / 0.28 | 0.996 / 0.993 | 1.000 / 0.997 | 1.18 / 1.86 |
-#: | mag30  | 0.59 / 0.27 | 0.996 / 0.993 | 1.000 / 0.997 | 1.18 / 1.86 |
-#: | filled | 0.88 / 0.47 | 0.996 / 1.000 | 0.996 / 1.000 | 0.55 / 0.10 |
-#: | filled50 | 0.95 / 0.60 | 1.000 / 0.998 | 1.000 / 0.999 | 0.16 / 0.13 |
+#: | r25    | 1.41 / 0.43 | 0.978 / 0.999 | 0.984 / 0.999 | 0.17 / 0.24 |
+#: | r40    | 1.31 / 0.31 | 1.000 / 1.000 | 1.000 / 1.000 | 0.16 / 0.38 |
+#: | r50    | 1.24 / 0.26 | 1.000 / 1.000 | 1.000 / 1.000 | 0.19 / 0.47 |
+#: | r100   | 1.06 / 0.22 | 1.000 / 0.998 | 1.000 / 1.000 | 0.49 / 0.92 |
+#: | jitter | 0.17 / 0.08 | 0.984 / 0.998 | 0.994 / 0.999 | 1.02 / 0.84 |
+#: | hold   | 0.29 / 0.26 | 1.000 / 1.000 | 1.000 / 1.000 | 0.16 / 0.66 |
+#: | clip4  | 1.29 / 0.82 | 0.996 / 1.000 | 0.959 / 1.000 | 0.14 / 0.05 |
+#: | motion | 0.58 / 0.33 | 1.000 / 1.000 | 1.000 / 1.000 | 0.22 / 0.25 |
+#: | nT     | 0.87 / 0.26 | 0.996 / 0.997 | 1.000 / 1.000 | 1.20 / 1.35 |
+#: | mag10  | 0.80 / 0.23 | 0.996 / 0.997 | 1.000 / 1.000 | 1.20 / 1.35 |
+#: | mag30  | 0.60 / 0.25 | 0.996 / 0.997 | 1.000 / 1.000 | 1.20 / 1.35 |
+#: | filled | 0.89 / 0.44 | 0.996 / 1.000 | 0.996 / 1.000 | 0.55 / 0.10 |
+#: | filled50 | 0.95 / 0.49 | 1.000 / 1.000 | 1.000 / 1.000 | 0.15 / 0.05 |
+#:
+#: The low rates changed with two models of what a sample's interval holds (`ahrs/mod.rs`, `sensors/gyro/channel.rs`):
+#: readings that are their interval's mean describe the body half an interval before the gyro's integral (gravity and
+#: the field are turned forward by it), and one rotation step per interval leaves out the coning term of the interval
+#: before. Before them, total / VQF was 1.23 / 0.71 at 25 Hz, 1.20 / 0.52 at 40, 1.14 / 0.43 at 50 and 1.05 / 0.26 at
+#: 100 Hz. Excerpt 34 gained; excerpt 16 (a fast translation) lost a little, by a heading offset of a few tenths of a
+#: degree that the coning term moves (docs/broad.md, "What a sample's interval holds").
 #:
 #: A slower magnetometer was a miss until a repeated reading was turned by the gyro frame's rotation since it was new
 #: (`ahrs/mod.rs`, `MagHold`): the stale readings pulled the heading back to where the body pointed when they were
@@ -92,19 +99,19 @@ ALTERATIONS = {
 #: gyro frame the accelerometer's low-pass lives in; now 100% (median NEES 0.30: cautious while the bias is learned).
 #: Before the saturation term was widened (saturation_factor 0.25 → 1) the clipped excerpt 16 had 71% inside.
 BOUNDS = {
-    "r25": (1.3, 0.96, 0.97, (0.18, 1.8)),
-    "r40": (1.3, 0.97, 0.98, (0.18, 2.0)),
-    "r50": (1.2, 0.975, 0.985, (0.18, 2.0)),
-    "r100": (1.1, 0.98, 0.99, (0.4, 2.5)),
-    "jitter": (0.25, 0.97, 0.985, (0.8, 2.3)),
+    "r25": (1.5, 0.96, 0.97, (0.14, 0.5)),
+    "r40": (1.4, 0.98, 0.98, (0.13, 0.75)),
+    "r50": (1.35, 0.98, 0.985, (0.15, 0.9)),
+    "r100": (1.15, 0.98, 0.99, (0.4, 1.7)),
+    "jitter": (0.25, 0.97, 0.985, (0.7, 2.0)),
     "hold": (0.4, 0.99, 0.99, (0.1, 1.2)),
     "clip4": (1.4, 0.99, 0.95, (0.03, 0.3)),
     "motion": (0.7, 0.99, 0.99, (0.15, 0.45)),
-    "nT": (1.0, 0.99, 0.99, (1.1, 2.3)),
+    "nT": (1.0, 0.99, 0.99, (1.0, 2.3)),
     "mag10": (0.9, 0.99, 0.99, (1.0, 2.3)),
     "mag30": (0.7, 0.99, 0.99, (1.0, 2.3)),
     "filled": (1.0, 0.99, 0.99, (0.06, 0.8)),
-    "filled50": (1.05, 0.99, 0.99, (0.08, 0.3)),
+    "filled50": (1.05, 0.99, 0.99, (0.04, 0.3)),
 }
 
 
@@ -153,12 +160,27 @@ def test_altered_excerpts_beside_vqf(altered, ours, alteration):
         assert nees_lo <= r["tilt_nees_median"] <= nees_hi, (name, r)
 
 
+#: Excerpt 34 (an attached magnet, turned by hand) at the low rates, where the interval's models matter most: the
+#: reading's lag and the coning term (`ahrs/mod.rs`, `sensors/gyro/channel.rs`). Measured, total / VQF: 0.43, 0.31,
+#: 0.26 at 25, 40, 50 Hz; without them 0.71, 0.53, 0.43 (and 0.41, 0.31, 0.27 with the lag alone).
+INTERVAL_MODEL_BOUNDS = {"r25": 0.55, "r40": 0.4, "r50": 0.35}
+
+
+@pytest.mark.parametrize("alteration", sorted(INTERVAL_MODEL_BOUNDS))
+def test_the_intervals_models_at_low_rates(altered, ours, alteration):
+    _, vqf = altered
+    name = f"34_{alteration}"
+    assert ours[name]["total_rmse_deg"] <= INTERVAL_MODEL_BOUNDS[alteration] * vqf[name]["total_rmse_deg"], (
+        name, ours[name], vqf[name])
+
+
 #: The particle filter (`qpf:average`, the preset's 2000 particles, seeded by the study's vehicle id) at the low
 #: rates, where weighing a tilt reading far sharper than the cloud used to widen the heading (BROAD 07 at 25 Hz:
 #: 51° where the MEKF has 8°). Measured, excerpts 16 / 34, total / VQF: before the Gaussian tilt step (`filters/qpf`,
 #: `gaussian_tilt`) r25 1.43 / 0.79, r40 1.36 / 0.60, r50 1.45 / 0.40; with it 1.21 / 0.71, 1.19 / 0.51,
-#: 1.17 / 0.44 (tilt inside 99% ≥ 0.965 both ways).
-QPF_RATE_BOUND = 1.3
+#: 1.17 / 0.44; with the interval's models above (the lag and the coning term) 1.43 / 0.40, 1.32 / 0.32,
+#: 1.26 / 0.32 (tilt inside 99% ≥ 0.978 both ways): excerpt 16 moves as the MEKF's does.
+QPF_RATE_BOUND = 1.5
 
 
 @pytest.fixture(scope="module")

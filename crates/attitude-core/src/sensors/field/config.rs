@@ -32,6 +32,9 @@ pub struct MagConfig {
     /// What remains of it (the delay's uncertainty, the magnetometer's own dynamics), s: the heading
     /// 1σ grows by `σ_δ ‖ω‖` in quadrature.
     pub delay_sigma_s: f64,
+    /// The part of its interval by which a reading lags beside `delay_s`: a reading that is the
+    /// interval's mean describes the body half an interval before the gyro's integral does.
+    pub lag_intervals: f64,
     /// A reading whose low-passed norm deviates from the reference's by a relative `δn` and whose dip
     /// by `δd` (rad) is disturbed by a field of about that size: its heading 1σ grows by
     /// `deviation_gain · √(δn² + δd²) / cos(dip)` in quadrature (1: a disturbance of no preferred
@@ -90,6 +93,7 @@ impl Default for MagConfig {
             floor_rad: 0.0052,
             delay_s: 0.0,
             delay_sigma_s: 0.0,
+            lag_intervals: 0.5,
             deviation_gain: 1.0,
             hard_iron: HardIronConfig::default(),
         }
@@ -135,6 +139,7 @@ impl MagConfig {
         positive(self.correlation_s, "mag.correlation_s")?;
         non_negative(self.floor_rad, "mag.floor_rad")?;
         non_negative(self.delay_sigma_s, "mag.delay_sigma_s")?;
+        fraction(self.lag_intervals, "mag.lag_intervals")?;
         if !(self.delay_s.abs() <= 1.0) {
             return Err(format!(
                 "mag.delay_s must be within ±1 s, got {}",

@@ -1,6 +1,6 @@
 //! The raw-IMU gravity channel's settings (`service.imu.acc`), their defaults and their checks.
 
-use crate::sensors::check::{non_negative, positive};
+use crate::sensors::check::{fraction, non_negative, positive};
 
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -25,6 +25,11 @@ pub struct AccConfig {
     /// The tilt's 1σ is also kept at least `floor_lp_factor · σ_lp`: an estimate that follows the
     /// low-passed direction has that direction's error, however many updates it took.
     pub floor_lp_factor: f64,
+    /// The part of its interval by which a reading lags the gyro's integral: a reading that is the
+    /// interval's mean (a sensor's decimation filter, the same as its gyro's) describes the body
+    /// half an interval before the rotation integrated to its time stamp. Gravity in it is turned
+    /// forward by the rotation over that part of the interval (0: the reading is of the end).
+    pub lag_intervals: f64,
 }
 
 impl Default for AccConfig {
@@ -39,6 +44,7 @@ impl Default for AccConfig {
             norm_gate: 0.25,
             floor_rad: 0.0017,
             floor_lp_factor: 1.0,
+            lag_intervals: 0.5,
         }
     }
 }
@@ -54,6 +60,7 @@ impl AccConfig {
         positive(self.rest_sigma_rad, "acc.rest_sigma_rad")?;
         positive(self.norm_gate, "acc.norm_gate")?;
         non_negative(self.floor_rad, "acc.floor_rad")?;
-        non_negative(self.floor_lp_factor, "acc.floor_lp_factor")
+        non_negative(self.floor_lp_factor, "acc.floor_lp_factor")?;
+        fraction(self.lag_intervals, "acc.lag_intervals")
     }
 }

@@ -48,6 +48,11 @@ pub struct GyroConfig {
     /// How much of the rotation the body could make during a gap, at the rates seen around it, the
     /// bridge may be off by.
     pub gap_turn_factor: f64,
+    /// Each interval's rotation carries the coning term of the interval before,
+    /// `Δθ_{k−1} × Δθ_k / 12` (see [`GyroChannel::coning_rad_s`]). Off only for a sensor that
+    /// integrates its rate itself and reports the increments (strapdown-integrated output), which
+    /// already holds it.
+    pub coning: bool,
 }
 
 impl Default for GyroConfig {
@@ -57,6 +62,7 @@ impl Default for GyroConfig {
             range_rad_s: 0.0,
             saturation_factor: 1.0,
             gap_turn_factor: 1.0,
+            coning: true,
         }
     }
 }
@@ -196,6 +202,28 @@ impl GyroChannel {
         c.gap_turn_factor.powi(2) * self.rate_ms * blind * blind.min(2.0 * coherent)
     }
 
+    /// The rate to add to sample `gyr` (bias `bias` removed from both) so that one step over its
+    /// interval turns by the second-order rotation vector `Δθ_k + Δθ_{k−1} × Δθ_k / 12` (Bortz's
+    /// equation to second order, the classic two-sample coning term): a rate that is its interval's
+    /// mean gives the right rotation only while the axis stands still. When it turns, the rotation
+    /// steps that do not commute add up, coherently in a coning motion. BROAD 07 resampled to 25 Hz
+    /// drifts 4.0° in 5 s without the term and 1.3° with it (0.17° against 1.06° at 50 Hz; at 285.7
+    /// Hz it is below 0.01°). The previous interval is taken as the usual one; none after a gap.
+    pub fn coning_rad_s(
+        &self,
+        c: &GyroConfig,
+        gyr: &Vector3<f64>,
+        bias: &Vector3<f64>,
+        after_gap: bool,
+    ) -> Vector3<f64> {
+        match self.previous {
+            Some(prev) if c.coning && !after_gap => {
+                (prev - bias).cross(&(gyr - bias)) * (self.interval_s / 12.0)
+            }
+            _ => Vector3::zeros(),
+        }
+    }
+
     /// Takes sample `gyr` over an interval of `dt_s`; returns the attitude variance per axis (rad²)
     /// it adds beside the filter's gyro model.
     pub fn step(&mut self, c: &GyroConfig, gyr: &Vector3<f64>, dt_s: f64) -> f64 {
@@ -266,6 +294,48 @@ impl GyroChannel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A coning motion (the body's rate turns about its z axis, `ω = a (cos Ωt, sin Ωt, 0)`) read as
+    /// each interval's mean rate at 25 Hz: one rotation step per interval drifts, the coning term
+    /// takes most of it away; on the same motion with the term off, nothing is added.
+    #[test]
+    fn the_coning_term_takes_the_drift_of_a_coning_motion() {
+        use nalgebra::Rotation3;
+        let (a, big_omega, dt, fine) = (3.0, 8.0, 0.04, 400);
+        let rate = |t: f64| Vector3::new((big_omega * t).cos(), (big_omega * t).sin(), 0.0) * a;
+        let run = |coning: bool| {
+            let c = GyroConfig {
+                coning,
+                ..GyroConfig::default()
+            };
+            let mut g = GyroChannel::default();
+            let (mut exact, mut stepped) = (Rotation3::identity(), Rotation3::identity());
+            for k in 1..=50 {
+                let t0 = dt * f64::from(k - 1);
+                let mut mean = Vector3::zeros();
+                for i in 0..fine {
+                    let t = t0 + dt * (f64::from(i) + 0.5) / f64::from(fine);
+                    exact *= Rotation3::from_scaled_axis(rate(t) * dt / f64::from(fine));
+                    mean += rate(t) / f64::from(fine);
+                }
+                g.gap(&c, &mean, dt);
+                let extra = g.coning_rad_s(&c, &mean, &Vector3::zeros(), false);
+                if !coning {
+                    assert_eq!(extra, Vector3::zeros());
+                }
+                stepped *= Rotation3::from_scaled_axis((mean + extra) * dt);
+                g.step(&c, &mean, dt);
+            }
+            (stepped.inverse() * exact).angle().to_degrees()
+        };
+        let (plain, corrected) = (run(false), run(true));
+        // (Measured: 1.03° and 0.04°.)
+        assert!(plain > 0.8, "2 s of coning at 25 Hz drift {plain}°");
+        assert!(
+            corrected < 0.1 * plain,
+            "{corrected}° with the term, {plain}° without"
+        );
+    }
 
     /// A constant rate adds nothing; a change adds (½ ‖Δω‖ Δt)²; a saturated run grows its 1σ
     /// linearly: after n samples the added variances sum to (n · range · Δt)².
