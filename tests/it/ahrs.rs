@@ -692,6 +692,79 @@ fn the_magnetometer_delay_is_compensated() {
     );
 }
 
+/// A sensor whose every reading is its interval's mean, at 25 Hz, on a body in a coning motion (its
+/// rate turns about body z at 8 rad/s: `ω = 3 (cos 8t, sin 8t, 0.2)` rad/s) after 3 s of rest: the
+/// truth integrated finely, the readings (gyro, accelerometer, magnetometer) the means of the fine
+/// ones over each interval, no noise. One rotation step per interval leaves out the coning term, a
+/// steady turn about z of about 0.5°/s that the magnetometer has to pull back; with it (and the
+/// readings' lag) the estimate stays close. Measured: 0.31° RMS with, 1.57° without (the tilt alone
+/// 0.006° and 0.39°).
+#[test]
+fn a_coning_motion_at_25_hz_keeps_its_heading() {
+    let (f, p) = imu_preset();
+    let rate_hz = 25.0;
+    let dt = 1.0 / rate_hz;
+    let fine = 40;
+    let omega = |t: f64| {
+        if t < 3.0 {
+            Vector3::zeros()
+        } else {
+            Vector3::new((8.0 * t).cos(), (8.0 * t).sin(), 0.2) * 3.0
+        }
+    };
+    let g = Vector3::new(0.0, 0.0, G);
+    let mut q = Quaternion::IDENTITY;
+    let mut steps = Vec::new();
+    for k in 0..(60.0 * rate_hz) as usize {
+        let t0 = (k as f64 - 1.0) * dt;
+        let (mut gyr, mut acc, mut mag) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        for i in 0..fine {
+            let t = t0 + dt * (i as f64 + 0.5) / fine as f64;
+            let w = omega(t);
+            if k > 0 {
+                q = q.propagate(&w, dt / fine as f64);
+            }
+            let a = q.attitude_matrix();
+            gyr += w / fine as f64;
+            acc += a * g / fine as f64;
+            mag += a * field_enu() / fine as f64;
+        }
+        steps.push(Step {
+            sample: ImuSample {
+                t_s: k as f64 * dt,
+                gyr_rad_s: gyr,
+                acc_m_s2: acc,
+                mag: Some(mag),
+            },
+            truth: q,
+        });
+    }
+    let run = |coning: bool| {
+        let mut p = p.clone();
+        p.imu.gyro.coning = coning;
+        let mut v = VehicleState::new("coning", f.clone());
+        let est = feed(&mut v, &p, &steps);
+        let offset = steps.len() - est.len();
+        let skip = (10.0 * rate_hz) as usize;
+        let (mut all, mut tilt) = (0.0, 0.0);
+        for (k, m) in est.iter().enumerate().skip(skip) {
+            let e = reference_error(&steps[k + offset].truth, m).0;
+            all += e.norm_squared();
+            tilt += e.x * e.x + e.y * e.y;
+        }
+        let n = (est.len() - skip) as f64;
+        ((all / n).sqrt() / DEG, (tilt / n).sqrt() / DEG)
+    };
+    let (with, without) = (run(true), run(false));
+    eprintln!("RMS (3-axis, tilt) {with:?}° with the coning term, {without:?}° without");
+    assert!(
+        with.0 < 0.5 && without.0 > 3.0 * with.0,
+        "3-axis RMS {}° with, {}° without",
+        with.0,
+        without.0
+    );
+}
+
 // ------------------------------------------------------------------------------------------------
 // Honesty mechanisms
 
