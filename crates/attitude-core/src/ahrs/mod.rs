@@ -5,7 +5,10 @@
 //! what the filters use, the same way for every filter (MEKF, QPF, USQUE):
 //!
 //! * **Gyro** ([`Ahrs::step`]): the rate of sample `k` covers `(t_{k−1}, t_k]` (the convention of
-//!   IMU drivers and of VQF); the filter propagates over that interval with it.
+//!   IMU drivers and of VQF); the filter propagates over that interval with it, plus the coning term
+//!   of the interval before ([`GyroChannel::coning_rad_s`]). A reading that is its interval's mean
+//!   describes the body `lag_intervals` of the interval earlier: the accelerometer's gravity and the
+//!   magnetometer's reading are turned forward to the sample's time.
 //! * **Gyro frame**: the gyro's rotation alone (bias removed, no correction) integrated from the start;
 //!   the accelerometer's low-pass and the hard-iron fit work in it, so that no correction of the filter
 //!   ever feeds back into a measurement.
@@ -520,13 +523,16 @@ impl Ahrs {
             t_from = t_prev + g.blind_s;
             filter.gyro_interval_with(t_prev, &g.bridge_rad_s, t_from, g.variance_rad2)?;
         }
+        // The sample's own interval (after a gap, the part the bridge did not cover): its rate, its
+        // readings' lag and a filled run's time count over it.
+        let own = s.t_s - t_from;
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
-        let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, s.t_s - t_from);
+        let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, own);
         // A sample on the line through the two before it: the run of such samples is a gap that
         // someone filled in (`Interpolation`). What it hides grows as a gap's would over the run's
         // time, in the filter and in the gyro frame (as across a gap).
-        let hidden = match self.line.step(s, s.t_s - t_from, gap.is_some()) {
+        let hidden = match self.line.step(s, own, gap.is_some()) {
             Some((was, now)) => {
                 let before = self.gyro.unseen_turn_variance(&gyro_config, was);
                 let after = self.gyro.unseen_turn_variance(&gyro_config, now);
@@ -555,7 +561,6 @@ impl Ahrs {
         }
         self.counts.gyro_saturated = self.gyro.saturated;
         // The catch-up of a held run is turned over this sample's interval, beside its own rate.
-        let own = s.t_s - t_from;
         let rate = match catch_up {
             Some(r) if own > 0.0 => s.gyr_rad_s + coning + r / own,
             _ => s.gyr_rad_s + coning,
@@ -620,7 +625,7 @@ impl Ahrs {
             .as_ref()
             .map_or_else(Vector3::zeros, |f| f.offset());
         // The magnetometer's lag: its delay, and the part of the interval its reading stands for.
-        let mag_lag = c.mag.delay_s + c.mag.lag_intervals * (s.t_s - t_from);
+        let mag_lag = c.mag.delay_s + c.mag.lag_intervals * own;
         let mag = self.mag_hold.reading(s.mag, &a_gyro, &offset, |m| {
             // Turned forward over the magnetometer's lag: the body turned by ω δ since it sampled,
             // and a body-frame vector seen from it turns the other way, Ȧ = −[ω×] A.
