@@ -2,7 +2,7 @@
 
 use super::input::{some, some_number, some_object, some_vec3, Three};
 use super::{EstimateMsg, QuaternionMsg, RejectCode, Rejection, MAX_TIME_S};
-use crate::ahrs::SensorSheet;
+use crate::ahrs::{Output, SensorSheet};
 use crate::filters::sghqf::LEVELS;
 use crate::filters::{Fiducial, FilterKind, FilterSpec};
 use crate::vehicle::{ResetOutcome, ResetRequest, TakeoverSeed, MAX_PARTICLES};
@@ -127,6 +127,10 @@ pub struct SensorSheetMsg {
     #[serde(default, deserialize_with = "some_number")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mag_noise: Option<f64>,
+    /// What a sample's outputs stand for over its interval: `mean`, `increments` or `instant`
+    /// (crate::ahrs::Output).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
 }
 
 impl TryFrom<&SensorSheetMsg> for SensorSheet {
@@ -173,6 +177,16 @@ impl TryFrom<&SensorSheetMsg> for SensorSheet {
                 ));
             }
             *at = v;
+        }
+        if let Some(name) = &m.output {
+            sheet.output = Output::from_name(name).ok_or_else(|| {
+                Rejection::new(
+                    RejectCode::BadRequest,
+                    format!(
+                        "sensor.output must be \"mean\" (every output its interval's mean), \"increments\" (the gyro's own angle increments) or \"instant\" (values at the time stamp), got {name:?}"
+                    ),
+                )
+            })?;
         }
         Ok(sheet)
     }

@@ -842,6 +842,66 @@ fn an_overconfident_tilt_is_reacquired() {
     // still what a filter needs that claims far less than its error; the test checks it acts.
 }
 
+/// A sensor's output stage (`sensor.output`: `mean`, `increments`, `instant`) is a datasheet value like
+/// the others: the service's (`service.imu.sensor`), a vehicle's over it (`service.vehicles.V.sensor`)
+/// and a reset request's over the vehicle's; a name not among the three is refused with the setting
+/// named. The reset's reaches the pipeline: an `increments` gyro (no coning term added) turns the same
+/// stream into other estimates than the configuration's models.
+#[test]
+fn a_sensors_output_stage_comes_from_its_configuration_and_its_reset() {
+    use attitude_service::ahrs::Output;
+    use attitude_service::service::config;
+    let c = config::parse(
+        r#"{service: {imu: {sensor: {output: "increments"}},
+                      vehicles: {a: {sensor: {output: "instant"}}, b: {sensor: {gyro_range_deg_s: 500}}}}}"#,
+        "test",
+    )
+    .unwrap();
+    assert_eq!(c.service.default_filter.sensor.output, Output::Increments);
+    assert_eq!(c.service.filter_for("a").sensor.output, Output::Instant);
+    assert_eq!(c.service.filter_for("b").sensor.output, Output::Increments);
+    assert_eq!(c.service.filter_for("b").sensor.gyro_range_deg_s, 500.0);
+    let e = format!(
+        "{:#}",
+        config::parse(
+            r#"{service: {imu: {sensor: {output: "averaged"}}}}"#,
+            "test"
+        )
+        .unwrap_err()
+    );
+    assert!(e.contains("averaged") && e.contains("mean"), "{e}");
+
+    let reset = |output: &str| {
+        let m: attitude_service::wire::ResetMsg =
+            serde_json::from_value(serde_json::json!({"sensor": {"output": output}})).unwrap();
+        ResetRequest::try_from(&m)
+    };
+    assert_eq!(
+        reset("instant").unwrap().sensor.map(|s| s.output),
+        Some(Output::Instant)
+    );
+    let r = reset("sideways").unwrap_err();
+    assert_eq!(r.code, attitude_service::wire::RejectCode::BadRequest);
+    assert!(
+        r.message.contains("sensor.output") && r.message.contains("sideways"),
+        "{}",
+        r.message
+    );
+
+    // Through a vehicle: the same turning stream, with the configuration's models (coning on) and
+    // after a reset that says the gyro's outputs are its own increments.
+    let (f, p) = imu_preset();
+    let mut imu = Imu::new(16, Quaternion::IDENTITY, Vector3::zeros());
+    let steps = imu.run(0.0, 2000, |t| turning(t) * 0.8, still, |_| field_enu());
+    let configured = feed(&mut VehicleState::new("o", f.clone()), &p, &steps);
+    let mut v = VehicleState::new("o", f.clone());
+    v.on_reset(&reset("increments").unwrap(), &f, &p, &mut Vec::new())
+        .unwrap();
+    let increments = feed(&mut v, &p, &steps);
+    let (a, b) = (configured.last().unwrap(), increments.last().unwrap());
+    assert!(b.q.w.is_finite() && a.q != b.q, "{:?} {:?}", a.q, b.q);
+}
+
 /// The published covariance adds the time-stamp uncertainty `σ_t² ω ωᵀ` to the filter's: the same
 /// vehicle with and without it differs by exactly that at the last sample.
 #[test]

@@ -12,7 +12,7 @@
 use super::SavedCounters;
 use crate::ahrs::repeats::{Interpolation, MagHold};
 use crate::ahrs::rest::RestDetector;
-use crate::ahrs::{AhrsCounts, AhrsState, NoiseMeter, Phase, SensorSheet};
+use crate::ahrs::{AhrsCounts, AhrsState, NoiseMeter, Output, Phase, SensorSheet};
 use crate::attitude::{Grp, Quaternion};
 use crate::filters::qpf::Cloud;
 use crate::filters::sghqf::Points;
@@ -258,7 +258,9 @@ saved!(SensorSheetV5 for SensorSheet {
     acc_noise_density_ug_sqrt_hz: f64,
     acc_range_g: f64,
     mag_noise: f64,
+    output: Output,
 });
+unit_enum!(OutputV8 for Output { Unstated, Mean, Increments, Instant });
 saved!(NoiseMeterV5 for NoiseMeter {
     gyro_var: f64,
     acc_var: f64,

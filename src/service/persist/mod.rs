@@ -32,7 +32,9 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// 7: the raw-IMU pipeline holds what it recognises of a driver's repeats and a converter's filled
 /// holes (`crate::ahrs::repeats`: the last samples' changes, a slower magnetometer's last new reading
 /// and its frame; 6 cannot say them: refused).
-pub const VERSION: u32 = 7;
+/// 8: a datasheet states its output stage (`crate::ahrs::Output`: interval means, the gyro's own
+/// increments, or values at the time stamp; 7 cannot say it: refused).
+pub const VERSION: u32 = 8;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 

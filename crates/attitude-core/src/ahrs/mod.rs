@@ -51,7 +51,7 @@ use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 use repeats::{Interpolation, MagHold};
 use rest::RestDetector;
 use sheet::STANDARD_G;
-pub use sheet::{MeasuredNoise, NoiseMeter, SensorSheet};
+pub use sheet::{MeasuredNoise, NoiseMeter, Output, SensorSheet};
 pub use state::{AhrsState, Phase};
 
 /// What the pipeline has done so far and what it sees now (published with every estimate).
@@ -210,9 +210,24 @@ impl Ahrs {
         self.noise.measured()
     }
 
-    /// The gyro configuration with the datasheet's range when the configuration gives none.
+    /// How far into its interval a reading lags: the datasheet's output stage when stated, else the
+    /// configuration's (the accelerometer's, the magnetometer's).
+    fn lag_intervals(&self, c: &AhrsConfig) -> (f64, f64) {
+        self.sheet
+            .output
+            .models()
+            .map_or((c.acc.lag_intervals, c.mag.lag_intervals), |(lag, _)| {
+                (lag, lag)
+            })
+    }
+
+    /// The gyro configuration with the datasheet's range when the configuration gives none, and
+    /// the coning term as the datasheet's output stage says when it is stated.
     fn gyro_config(&self, c: &AhrsConfig) -> GyroConfig {
         let mut g = c.gyro.clone();
+        if let Some((_, coning)) = self.sheet.output.models() {
+            g.coning = coning;
+        }
         if g.range_rad_s <= 0.0 {
             g.range_rad_s = self.sheet.gyro_range_rad_s();
         }
@@ -339,7 +354,7 @@ impl Ahrs {
         // other way, Ȧ = −[ω×] A). Gravity as the low-pass holds it, not the reading: the linear
         // acceleration in the reading is what the low-pass averages away, and turning it too cost
         // more than it gave (BROAD 16, a fast translation, at 25–50 Hz: 1.2× VQF's error → 1.9×).
-        let lag = c.acc.lag_intervals * own;
+        let lag = self.lag_intervals(c).0 * own;
         let acc = match self.gravity.up_body(&a_gyro) {
             Some(up) if lag > 0.0 => {
                 s.acc_m_s2 - (s.gyr_rad_s - bias).cross(&up) * (self.gravity.g0() * lag)
@@ -625,7 +640,7 @@ impl Ahrs {
             .as_ref()
             .map_or_else(Vector3::zeros, |f| f.offset());
         // The magnetometer's lag: its delay, and the part of the interval its reading stands for.
-        let mag_lag = c.mag.delay_s + c.mag.lag_intervals * own;
+        let mag_lag = c.mag.delay_s + self.lag_intervals(c).1 * own;
         let mag = self.mag_hold.reading(s.mag, &a_gyro, &offset, |m| {
             // Turned forward over the magnetometer's lag: the body turned by ω δ since it sampled,
             // and a body-frame vector seen from it turns the other way, Ȧ = −[ω×] A.
@@ -1018,6 +1033,99 @@ mod tests {
             "as of the time stamp: {lagging}° off, expected {expected}°"
         );
         assert!(turned < 0.03, "turned forward: {turned}° off");
+    }
+
+    /// A datasheet that states its output stage replaces the configuration's lag and coning term for
+    /// its sensor: readings that are interval means, sent by a vehicle whose sheet says `instant`,
+    /// keep the half-interval lag (1.7° of vertical in this turn) although the configuration would
+    /// turn them, and a sheet that says `mean` turns them although the configuration says 0; an
+    /// `increments` gyro gets no coning term, the others keep the configuration's.
+    #[test]
+    fn a_datasheets_output_stage_replaces_the_configured_lag_and_coning() {
+        let dt = 0.04;
+        let omega = Vector3::new(1.5, 0.0, 0.2);
+        let a0 = Rotation3::from_euler_angles(0.2, -0.1, 0.7).into_inner();
+        let a_at = |t: f64| Rotation3::from_scaled_axis(-omega * t).into_inner() * a0;
+        let g = Vector3::new(0.0, 0.0, STANDARD_G);
+        let mean = |t: f64| {
+            (0..400)
+                .map(|i| a_at(t - dt + dt * (f64::from(i) + 0.5) / 400.0) * g)
+                .sum::<Vector3<f64>>()
+                / 400.0
+        };
+        let truth = a0 * Vector3::z();
+        let off_deg = |config_lag: f64, output: Output| {
+            let mut c = AhrsConfig::default();
+            c.acc.lag_intervals = config_lag;
+            c.mag.lag_intervals = config_lag;
+            let mut ahrs = Ahrs::new(&c);
+            ahrs.set_sheet(&SensorSheet {
+                output,
+                ..SensorSheet::default()
+            });
+            for k in 0..500 {
+                let t = dt * f64::from(k);
+                let s = ImuSample {
+                    t_s: t,
+                    gyr_rad_s: omega,
+                    acc_m_s2: mean(t),
+                    mag: None,
+                };
+                ahrs.preprocess(&c, &s, &Vector3::zeros(), None, None, &Vector3::zeros());
+            }
+            ahrs.gravity.up_gyro().unwrap().angle(&truth).to_degrees()
+        };
+        let expected = (omega.norm() * dt / 2.0).to_degrees();
+        // Not stated: the configuration decides.
+        assert!(off_deg(0.5, Output::Unstated) < 0.03);
+        assert!((off_deg(0.0, Output::Unstated) / expected - 1.0).abs() < 0.1);
+        // Stated: the sheet decides, whatever the configuration says.
+        let instant = off_deg(0.5, Output::Instant);
+        assert!(
+            (instant / expected - 1.0).abs() < 0.1,
+            "instant: {instant}° off, expected {expected}°"
+        );
+        assert!(off_deg(0.0, Output::Mean) < 0.03);
+        assert!(off_deg(0.0, Output::Increments) < 0.03);
+        // The magnetometer's lag and the coning term follow the same sheet.
+        let c = AhrsConfig::default();
+        let mut ahrs = Ahrs::new(&c);
+        for (output, lags, coning) in [
+            (
+                Output::Unstated,
+                (c.acc.lag_intervals, c.mag.lag_intervals),
+                c.gyro.coning,
+            ),
+            (Output::Mean, (0.5, 0.5), true),
+            (Output::Increments, (0.5, 0.5), false),
+            (Output::Instant, (0.0, 0.0), true),
+        ] {
+            ahrs.set_sheet(&SensorSheet {
+                output,
+                ..SensorSheet::default()
+            });
+            assert_eq!(ahrs.lag_intervals(&c), lags, "{output:?}");
+            assert_eq!(ahrs.gyro_config(&c).coning, coning, "{output:?}");
+        }
+        // A vehicle's sheet over the service's: stated wins, unstated falls back.
+        let service = SensorSheet {
+            output: Output::Increments,
+            ..SensorSheet::default()
+        };
+        assert_eq!(
+            SensorSheet::default().or(&service).output,
+            Output::Increments
+        );
+        let vehicle = SensorSheet {
+            output: Output::Instant,
+            ..SensorSheet::default()
+        };
+        assert_eq!(vehicle.or(&service).output, Output::Instant);
+        for o in [Output::Mean, Output::Increments, Output::Instant] {
+            assert_eq!(Output::from_name(o.name()), Some(o));
+        }
+        assert_eq!(Output::from_name("unstated"), None);
+        assert_eq!(Output::from_name("Mean"), None);
     }
 
     /// The alignment's heading comes from the field across the accelerometer's vertical, so a

@@ -30,6 +30,63 @@ pub struct SensorSheet {
     pub acc_range_g: f64,
     /// Magnetometer noise, 1σ per axis, in the unit of the readings.
     pub mag_noise: f64,
+    /// What a sample's outputs stand for over its interval (the datasheet's output stage); when
+    /// stated it replaces the configuration's `acc.lag_intervals`, `mag.lag_intervals` and
+    /// `gyro.coning` for this sensor.
+    pub output: Output,
+}
+
+/// What a sample's outputs stand for over the interval since the one before (crate::ahrs: the
+/// readings' lag and the coning term).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum Output {
+    /// Not stated: the configuration's models.
+    #[default]
+    Unstated,
+    /// Every output is its interval's mean (a decimation filter shared by the gyro and the
+    /// accelerometer, as most MEMS IMUs at a reduced output rate): the readings describe the body
+    /// half an interval before the time stamp, and one rotation step per interval needs the
+    /// coning term.
+    Mean,
+    /// The gyro reports the angle it integrated over the interval itself (delta angles, a
+    /// strapdown-integrated output): its increments hold the coning already; the readings are
+    /// interval means.
+    Increments,
+    /// The outputs are the values at the time stamp (no averaging: a sensor read as it is, or a
+    /// recording interpolated to its time stamps): no lag; the coning term stays (a rate between two
+    /// instants turns its axis as well).
+    Instant,
+}
+
+impl Output {
+    /// The readings' lag (in intervals) and whether the coning term applies, when stated.
+    pub fn models(self) -> Option<(f64, bool)> {
+        match self {
+            Output::Unstated => None,
+            Output::Mean => Some((0.5, true)),
+            Output::Increments => Some((0.5, false)),
+            Output::Instant => Some((0.0, true)),
+        }
+    }
+
+    /// The name a configuration or a reset request gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Output::Unstated => "unstated",
+            Output::Mean => "mean",
+            Output::Increments => "increments",
+            Output::Instant => "instant",
+        }
+    }
+
+    /// The output stage named `name` (`mean`, `increments`, `instant`).
+    pub fn from_name(name: &str) -> Option<Output> {
+        [Output::Mean, Output::Increments, Output::Instant]
+            .into_iter()
+            .find(|o| o.name() == name)
+    }
 }
 
 /// Standard gravity, m/s² (a datasheet's g).
@@ -116,6 +173,11 @@ impl SensorSheet {
             ),
             acc_range_g: pick(self.acc_range_g, base.acc_range_g),
             mag_noise: pick(self.mag_noise, base.mag_noise),
+            output: if self.output == Output::Unstated {
+                base.output
+            } else {
+                self.output
+            },
         }
     }
 }
