@@ -986,6 +986,41 @@ mod tests {
         }
     }
 
+    /// A steady turn about a nearly horizontal axis at 25 Hz, the accelerometer's readings their
+    /// interval's means (by 400 sub-steps), through the pipeline's preprocessing with `c` and `sheet`:
+    /// how far the low-passed vertical ends from the true one, and `|ω| Δt / 2`, how far a reading
+    /// taken as of its time stamp puts it, both in degrees.
+    fn vertical_off_in_a_turn(c: &AhrsConfig, sheet: &SensorSheet) -> (f64, f64) {
+        let dt = 0.04;
+        let omega = Vector3::new(1.5, 0.0, 0.2);
+        let a0 = Rotation3::from_euler_angles(0.2, -0.1, 0.7).into_inner();
+        // Ȧ = −[ω×] A with ω constant in the body: A(t) = exp(−[ω×] t) A₀.
+        let a_at = |t: f64| Rotation3::from_scaled_axis(-omega * t).into_inner() * a0;
+        let g = Vector3::new(0.0, 0.0, STANDARD_G);
+        // The interval's mean, (t − Δt, t].
+        let mean = |t: f64| {
+            (0..400)
+                .map(|i| a_at(t - dt + dt * (f64::from(i) + 0.5) / 400.0) * g)
+                .sum::<Vector3<f64>>()
+                / 400.0
+        };
+        let mut ahrs = Ahrs::new(c);
+        ahrs.set_sheet(sheet);
+        for k in 0..500 {
+            let t = dt * f64::from(k);
+            let s = ImuSample {
+                t_s: t,
+                gyr_rad_s: omega,
+                acc_m_s2: mean(t),
+                mag: None,
+            };
+            ahrs.preprocess(c, &s, &Vector3::zeros(), None, None, &Vector3::zeros());
+        }
+        // The gyro frame is the body's at the first sample: up there is A₀ ẑ.
+        let off = ahrs.gravity.up_gyro().unwrap().angle(&(a0 * Vector3::z()));
+        (off.to_degrees(), (omega.norm() * dt / 2.0).to_degrees())
+    }
+
     /// A reading that is its interval's mean describes the body half an interval before the rotation
     /// integrated to its time stamp. In a steady turn about a horizontal axis, gravity stands still
     /// in the gyro frame, and readings taken as of their time stamp put it `|ω| Δt / 2` off: 1.7° at
@@ -993,41 +1028,13 @@ mod tests {
     /// forward by half the interval, the low-passed vertical is the true one.
     #[test]
     fn a_reading_of_its_intervals_mean_is_turned_to_the_sample_time() {
-        let dt = 0.04;
-        let omega = Vector3::new(1.5, 0.0, 0.2);
-        let a0 = Rotation3::from_euler_angles(0.2, -0.1, 0.7).into_inner();
-        // Ȧ = −[ω×] A with ω constant in the body: A(t) = exp(−[ω×] t) A₀.
-        let a_at = |t: f64| Rotation3::from_scaled_axis(-omega * t).into_inner() * a0;
-        let g = Vector3::new(0.0, 0.0, STANDARD_G);
-        // The interval's mean, (t − Δt, t], by 400 sub-steps.
-        let mean = |t: f64| {
-            (0..400)
-                .map(|i| a_at(t - dt + dt * (f64::from(i) + 0.5) / 400.0) * g)
-                .sum::<Vector3<f64>>()
-                / 400.0
-        };
-        let up_after = |lag_intervals: f64| {
+        let off = |lag_intervals: f64| {
             let mut c = AhrsConfig::default();
             c.acc.lag_intervals = lag_intervals;
-            let mut ahrs = Ahrs::new(&c);
-            for k in 0..500 {
-                let t = dt * f64::from(k);
-                let s = ImuSample {
-                    t_s: t,
-                    gyr_rad_s: omega,
-                    acc_m_s2: mean(t),
-                    mag: None,
-                };
-                ahrs.preprocess(&c, &s, &Vector3::zeros(), None, None, &Vector3::zeros());
-            }
-            ahrs.gravity.up_gyro().unwrap()
+            vertical_off_in_a_turn(&c, &SensorSheet::default())
         };
-        // The gyro frame is the body's at the first sample: up there is A₀ ẑ.
-        let truth = a0 * Vector3::z();
-        let off_deg = |u: Vector3<f64>| u.angle(&truth).to_degrees();
-        let lagging = off_deg(up_after(0.0));
-        let turned = off_deg(up_after(0.5));
-        let expected = (omega.norm() * dt / 2.0).to_degrees();
+        let (lagging, expected) = off(0.0);
+        let (turned, _) = off(0.5);
         assert!(
             (lagging / expected - 1.0).abs() < 0.1,
             "as of the time stamp: {lagging}° off, expected {expected}°"
@@ -1042,51 +1049,28 @@ mod tests {
     /// `increments` gyro gets no coning term, the others keep the configuration's.
     #[test]
     fn a_datasheets_output_stage_replaces_the_configured_lag_and_coning() {
-        let dt = 0.04;
-        let omega = Vector3::new(1.5, 0.0, 0.2);
-        let a0 = Rotation3::from_euler_angles(0.2, -0.1, 0.7).into_inner();
-        let a_at = |t: f64| Rotation3::from_scaled_axis(-omega * t).into_inner() * a0;
-        let g = Vector3::new(0.0, 0.0, STANDARD_G);
-        let mean = |t: f64| {
-            (0..400)
-                .map(|i| a_at(t - dt + dt * (f64::from(i) + 0.5) / 400.0) * g)
-                .sum::<Vector3<f64>>()
-                / 400.0
-        };
-        let truth = a0 * Vector3::z();
-        let off_deg = |config_lag: f64, output: Output| {
+        let off = |config_lag: f64, output: Output| {
             let mut c = AhrsConfig::default();
             c.acc.lag_intervals = config_lag;
             c.mag.lag_intervals = config_lag;
-            let mut ahrs = Ahrs::new(&c);
-            ahrs.set_sheet(&SensorSheet {
+            let sheet = SensorSheet {
                 output,
                 ..SensorSheet::default()
-            });
-            for k in 0..500 {
-                let t = dt * f64::from(k);
-                let s = ImuSample {
-                    t_s: t,
-                    gyr_rad_s: omega,
-                    acc_m_s2: mean(t),
-                    mag: None,
-                };
-                ahrs.preprocess(&c, &s, &Vector3::zeros(), None, None, &Vector3::zeros());
-            }
-            ahrs.gravity.up_gyro().unwrap().angle(&truth).to_degrees()
+            };
+            vertical_off_in_a_turn(&c, &sheet)
         };
-        let expected = (omega.norm() * dt / 2.0).to_degrees();
         // Not stated: the configuration decides.
-        assert!(off_deg(0.5, Output::Unstated) < 0.03);
-        assert!((off_deg(0.0, Output::Unstated) / expected - 1.0).abs() < 0.1);
+        assert!(off(0.5, Output::Unstated).0 < 0.03);
+        let (lagging, expected) = off(0.0, Output::Unstated);
+        assert!((lagging / expected - 1.0).abs() < 0.1);
         // Stated: the sheet decides, whatever the configuration says.
-        let instant = off_deg(0.5, Output::Instant);
+        let (instant, _) = off(0.5, Output::Instant);
         assert!(
             (instant / expected - 1.0).abs() < 0.1,
             "instant: {instant}° off, expected {expected}°"
         );
-        assert!(off_deg(0.0, Output::Mean) < 0.03);
-        assert!(off_deg(0.0, Output::Increments) < 0.03);
+        assert!(off(0.0, Output::Mean).0 < 0.03);
+        assert!(off(0.0, Output::Increments).0 < 0.03);
         // The magnetometer's lag and the coning term follow the same sheet.
         let c = AhrsConfig::default();
         let mut ahrs = Ahrs::new(&c);
