@@ -12,7 +12,6 @@ import os
 import pathlib
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -27,6 +26,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from attitude_client import AttitudeClient  # noqa: E402
+from attitude_client.faults import free_port  # noqa: E402,F401  (one implementation: see its docstring)
 import attitude_client  # noqa: E402
 
 # The tests import the client package as a user does (scripts/python-tests.sh installs it editable); a copy
@@ -63,30 +63,6 @@ VEHICLES = {
     "r-usque": {"kind": "usque"},
     "lat-1": {"kind": "mekf"},
 }
-
-
-_GIVEN_PORTS: set[int] = set()
-
-
-def free_port() -> int:
-    """A TCP port on 127.0.0.1 that was free a moment ago and that no other test of this session has been given.
-    Taken below the kernel's ephemeral range (32768 and up on Linux), where ``bind(0)`` and every outgoing connection
-    get theirs: a zenoh client connecting elsewhere cannot take it before the service binds it (it once did: the
-    service exited with "Address already in use")."""
-    low, span = 20000, 12000
-    start = (os.getpid() * 7919) % span
-    for k in range(span):
-        port = low + (start + k * 4001) % span
-        if port in _GIVEN_PORTS:
-            continue
-        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-            try:
-                s.bind(("127.0.0.1", port))
-            except OSError:
-                continue
-        _GIVEN_PORTS.add(port)
-        return port
-    raise RuntimeError(f"no free port on 127.0.0.1 in {low}..{low + span}")
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str, interval: float = 0.01):

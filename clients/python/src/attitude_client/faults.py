@@ -196,10 +196,28 @@ def plan(case: str, t: np.ndarray, movement: np.ndarray | None, batch: int, max_
 # The service
 
 
+_GIVEN_PORTS: set[int] = set()
+
+
 def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A TCP port on 127.0.0.1 that was free a moment ago and that this process has not handed out before. Taken
+    below the kernel's ephemeral range (32768 and up on Linux), where ``bind(0)`` and every outgoing connection get
+    theirs: a zenoh client connecting elsewhere cannot take it before the service binds it, as it can take a port
+    ``bind(0)`` has just handed out (the service then exits with "Address already in use")."""
+    low, span = 20000, 12000
+    start = (os.getpid() * 7919) % span
+    for k in range(span):
+        port = low + (start + k * 4001) % span
+        if port in _GIVEN_PORTS:
+            continue
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+        _GIVEN_PORTS.add(port)
+        return port
+    raise RuntimeError(f"no free port on 127.0.0.1 in {low}..{low + span}")
 
 
 class Service:
