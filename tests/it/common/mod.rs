@@ -5,13 +5,15 @@
 mod engine;
 mod fixtures;
 mod net;
+mod ports;
 mod wait;
 
 pub use engine::{collecting_engine, service_config, Outputs};
 pub use fixtures::{
     assert_nees_with_power, default_policy, estimates, imu_preset, unit_quaternion, CHI2_120,
 };
-pub use net::{free_port, open_zenoh};
+pub use net::open_zenoh;
+pub use ports::free_port;
 pub use wait::{wait_until, wait_until_async};
 
 use std::path::{Path, PathBuf};
