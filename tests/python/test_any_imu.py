@@ -78,6 +78,9 @@ ALTERATIONS = {
 #: The preset before 2026-11-30's retuning (`gyro.change_factor` 0.5 instead of 0.12, `motion_gain` 0.75, the
 #: magnetometer's σ 0.03 rad; docs/broad.md, "A second basin") was as accurate or less at the low rates and far more
 #: cautious: r25 1.40 / 0.44, r40 1.27 / 0.30, r50 1.19 / 0.26, r100 1.02 / 0.22, with median tilt NEES 0.16–0.49.
+#: The retuning moved four bounds outward, each because its measured figure moved past it: r25's NEES ceiling
+#: 0.5 → 0.7 (0.58: less cautious), jitter's tilt 0.97 → 0.955 (0.984 → 0.964), filled's 3-axis 0.99 → 0.98
+#: (0.996 → 0.989), filled50's NEES ceiling 0.3 → 0.45 (0.35). Every other bound stayed or tightened.
 #:
 #: The low rates changed with two models of what a sample's interval holds (`ahrs/mod.rs`, `sensors/gyro/channel.rs`):
 #: readings that are their interval's mean describe the body half an interval before the gyro's integral (gravity and
@@ -104,12 +107,12 @@ ALTERATIONS = {
 #: Before the saturation term was widened (saturation_factor 0.25 → 1) the clipped excerpt 16 had 71% inside.
 BOUNDS = {
     "r25": (1.45, 0.97, 0.98, (0.4, 0.7)),
-    "r40": (1.3, 0.99, 0.99, (0.35, 0.85)),
+    "r40": (1.3, 0.99, 0.99, (0.35, 0.75)),
     "r50": (1.2, 0.99, 0.99, (0.35, 0.9)),
     "r100": (1.05, 0.99, 0.99, (0.55, 1.2)),
-    "jitter": (0.25, 0.955, 0.98, (0.8, 1.8)),
+    "jitter": (0.25, 0.955, 0.985, (0.8, 1.8)),
     "hold": (0.4, 0.99, 0.99, (0.12, 0.9)),
-    "clip4": (1.45, 0.99, 0.95, (0.03, 0.2)),
+    "clip4": (1.4, 0.99, 0.95, (0.03, 0.2)),
     "motion": (0.65, 0.99, 0.99, (0.2, 0.35)),
     "nT": (0.95, 0.99, 0.99, (1.0, 1.6)),
     "mag10": (0.9, 0.99, 0.99, (1.0, 1.6)),
@@ -169,7 +172,7 @@ def test_altered_excerpts_beside_vqf(altered, ours, alteration):
 #: 0.33 at 25, 40, 50 Hz; without them 0.54, 0.53, 0.48, and the tilt inside its 99% ellipse only 0.90, 0.93, 0.96 of
 #: the time (median NEES 2.9, 2.7, 2.6). (The preset before 2026-11-30's retuning: 0.43, 0.31, 0.26; without them
 #: 0.71, 0.53, 0.43.)
-INTERVAL_MODEL_BOUNDS = {"r25": 0.45, "r40": 0.42, "r50": 0.42}
+INTERVAL_MODEL_BOUNDS = {"r25": 0.45, "r40": 0.4, "r50": 0.35}
 
 
 @pytest.mark.parametrize("alteration", sorted(INTERVAL_MODEL_BOUNDS))
