@@ -17,13 +17,15 @@ pub fn free_port() -> u16 {
     // Where this process starts in the span (another test binary starts elsewhere), then a stride
     // prime to the span.
     let start = std::process::id().wrapping_mul(7_919) % SPAN;
+    // One lock over the check and the insertion: two tests asking at once were both given a port
+    // when each checked it before either had inserted it.
+    let mut given = GIVEN.lock().unwrap_or_else(|e| e.into_inner());
     for k in 0..SPAN {
         let port = (LOW + (start + k * 4_001) % SPAN) as u16;
-        if GIVEN.lock().unwrap().contains(&port) || TcpListener::bind(("127.0.0.1", port)).is_err()
-        {
+        if given.contains(&port) || TcpListener::bind(("127.0.0.1", port)).is_err() {
             continue;
         }
-        GIVEN.lock().unwrap().insert(port);
+        given.insert(port);
         return port;
     }
     panic!("no free port on 127.0.0.1 in {LOW}..{}", LOW + SPAN)
