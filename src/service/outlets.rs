@@ -69,12 +69,15 @@ const MAX_DECLARED: usize = 64;
 ///
 /// A put on an undeclared key has zenoh compute the key's route at every put (under 100 raw IMU
 /// samples per message, an estimate each, that was 29% of the service's CPU, and the put 42%:
-/// BENCHMARKS.md, issue 30). A declared publisher keeps its route, but zenoh 1.10 then resolves every
-/// other undeclared key (every input the vehicles put) against all the declarations, and with one
-/// per vehicle of a thousand the service's receiving thread drowned in it (issue 15). So the
-/// vehicles that publish fast (at least `DECLARE_MIN_RATE_HZ` over their first `DECLARE_AFTER_PUTS`
-/// estimates: raw IMU streams) get a publisher of their own, at most `MAX_DECLARED` of them, and
-/// the rest put on the session. Puts block under congestion rather than drop.
+/// BENCHMARKS.md, issue 30). A declared publisher keeps its route. zenoh 1.10.2 as published then
+/// resolved every other undeclared key (every input the vehicles put) against all the declarations,
+/// and with one per vehicle of a thousand the service's receiving thread drowned in it (issue 15);
+/// the vendored zenoh looks the key up instead (vendor/README.md), so that cliff is gone, and a
+/// publisher for each of a thousand 10 Hz vehicles saves only a few per cent. So the vehicles that
+/// publish fast (at least `DECLARE_MIN_RATE_HZ` over their first `DECLARE_AFTER_PUTS` estimates: raw
+/// IMU streams) get a publisher of their own, at most `MAX_DECLARED` of them (the session still
+/// scans its own declarations at each one), and the rest put on the session. Puts block under
+/// congestion rather than drop.
 pub async fn estimate_outlets(
     session: &zenoh::Session,
     keys: &Keys,

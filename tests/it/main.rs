@@ -26,3 +26,4 @@ mod service;
 mod sghqf;
 mod tidy;
 mod usque;
+mod zenoh_routing;

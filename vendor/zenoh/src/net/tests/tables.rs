@@ -1084,3 +1084,71 @@ fn big_key_expr() {
     res.get_best_key("/a", face.state.id + 1);
     Resource::get_matches(&face.tables.tables.read().unwrap().data, &key_expr);
 }
+
+/// attitude-service's change (vendor/README.md): get_matches looks a verbatim chunk up among many
+/// siblings instead of visiting them all. Its result must still be exactly the declared key expressions
+/// that intersect the key, for keys declared or not, verbatim or wild, before and after wild siblings
+/// are undeclared.
+#[test]
+fn match_test_many_siblings() {
+    let mut declared: Vec<String> = (0..60).map(|i| format!("P/v{i}/estimate")).collect();
+    declared.extend(
+        [
+            "P/*/gyro", "P/**", "P/v1$*/x", "P/$*3/estimate", "P/v5/*", "P/v7/**/deep", "Q/a",
+            "**/estimate", "P/@hidden/estimate", "P/v2/estimate/more",
+        ]
+        .map(String::from),
+    );
+    let queries: Vec<String> = [
+        "P/v7/gyro", "P/v77/estimate", "P/v13/x", "P/zzz/estimate", "P/v3/estimate", "P/v5/imu",
+        "P/v7/a/b/deep", "P/*/estimate", "P/**", "P/v1$*/x", "Q/a", "Q/b", "P/v2/estimate/more",
+        "P/@hidden/estimate", "P/v9/estimate", "P", "P/v9", "**", "P/v$*/gyro",
+    ]
+    .map(String::from)
+    .to_vec();
+
+    let router = new_router();
+    let tables = router.tables.clone();
+    let primitives = Arc::new(DummyPrimitives {});
+    let face = Arc::downgrade(&router.new_session(primitives).state);
+    for (i, k) in declared.iter().enumerate() {
+        register_expr(
+            &tables,
+            &mut face.upgrade().unwrap(),
+            (i + 1).try_into().unwrap(),
+            &keyexpr::new(k.as_str()).unwrap().into(),
+        );
+    }
+    let check = |live: &[(usize, &String)]| {
+        for q in queries.iter() {
+            let q = keyexpr::new(q.as_str()).unwrap();
+            let found: std::collections::BTreeSet<String> =
+                Resource::get_matches(&zread!(tables.tables).data, q)
+                    .iter()
+                    .map(|m| m.upgrade().unwrap().expr().to_string())
+                    .filter(|e| live.iter().any(|(_, k)| k.as_str() == e))
+                    .collect();
+            let expected: std::collections::BTreeSet<String> = live
+                .iter()
+                .filter(|(_, k)| q.intersects(keyexpr::new(k.as_str()).unwrap()))
+                .map(|(_, k)| k.to_string())
+                .collect();
+            assert_eq!(found, expected, "query {q}");
+        }
+    };
+    let live: Vec<(usize, &String)> = declared.iter().enumerate().collect();
+    check(&live);
+    // Undeclare the wild siblings: the lookup must forget them.
+    let mut live2 = Vec::new();
+    for (i, k) in live {
+        if k.contains('*') || k.contains('$') {
+            unregister_expr(&tables, &mut face.upgrade().unwrap(), (i + 1).try_into().unwrap());
+        } else {
+            live2.push((i, k));
+        }
+    }
+    check(&live2);
+    let root = zread!(tables.tables).data._get_root().clone();
+    let p = Resource::get_resource(&root, "P").unwrap();
+    assert!(p.wild_children.is_empty(), "{:?}", p.wild_children);
+}

@@ -376,6 +376,9 @@ pub struct Resource {
     pub(crate) suffix: usize,
     pub(crate) nonwild_prefix: Option<Arc<Resource>>,
     pub(crate) children: SingleOrBoxHashSet<Child>,
+    // attitude-service's change (vendor/README.md): the suffixes of the children that hold a wildcard
+    // ('*' or '$'), so that get_matches can look a verbatim chunk up instead of visiting every child.
+    pub(crate) wild_children: Vec<String>,
     pub(crate) ctx: Option<Box<ResourceContext>>,
     pub(crate) face_ctxs: IntHashMap<FaceId, Arc<FaceContext>>,
 }
@@ -405,6 +408,15 @@ impl Debug for Resource {
 
 #[derive(Clone)]
 pub(crate) struct Child(Arc<Resource>);
+
+/// attitude-service's change (vendor/README.md): a chunk that may intersect more than itself.
+fn is_wild_chunk(chunk: &str) -> bool {
+    chunk.contains('*') || chunk.contains('$')
+}
+
+/// attitude-service's change (vendor/README.md): get_matches looks a verbatim chunk up among more
+/// children than this, and visits them all below it, as before.
+const LOOKUP_ABOVE_CHILDREN: usize = 8;
 
 impl Deref for Child {
     type Target = Arc<Resource>;
@@ -459,6 +471,7 @@ impl Resource {
             suffix: parent.expr.len(),
             nonwild_prefix,
             children: SingleOrBoxHashSet::new(),
+            wild_children: Vec::new(),
             ctx: context.map(Box::new),
             face_ctxs: IntHashMap::new(),
         }
@@ -526,6 +539,7 @@ impl Resource {
             suffix: 0,
             nonwild_prefix: None,
             children: SingleOrBoxHashSet::new(),
+            wild_children: Vec::new(),
             ctx: None,
             face_ctxs: IntHashMap::new(),
         })
@@ -554,7 +568,9 @@ impl Resource {
                 }
                 mutres.nonwild_prefix.take();
                 {
-                    get_mut_unchecked(parent).children.remove(res.suffix());
+                    let parent = get_mut_unchecked(parent);
+                    parent.children.remove(res.suffix());
+                    parent.wild_children.retain(|s| s != res.suffix());
                 }
                 Resource::clean(parent);
             }
@@ -566,6 +582,7 @@ impl Resource {
         for mut c in r.children.drain() {
             Self::close(&mut c);
         }
+        r.wild_children.clear();
         r.parent.take();
         r.nonwild_prefix.take();
         r.ctx.take();
@@ -603,9 +620,11 @@ impl Resource {
                 if rest.is_empty() {
                     tracing::debug!("Register resource {}", new.expr());
                 }
-                get_mut_unchecked(&mut from)
-                    .children
-                    .insert(Child(new.clone()));
+                let parent = get_mut_unchecked(&mut from);
+                if is_wild_chunk(chunk) {
+                    parent.wild_children.push(chunk.to_string());
+                }
+                parent.children.insert(Child(new.clone()));
                 from = new;
             };
             suffix = rest;
@@ -871,11 +890,34 @@ impl Resource {
                         {
                             matches.push(Arc::downgrade(from));
                         }
-                        for child in from.children.iter() {
-                            if (ke_chunk_is_wild && ke_chunk_intersects_suffix) || suffix_is_wild {
+                        if (ke_chunk_is_wild && ke_chunk_intersects_suffix) || suffix_is_wild {
+                            for child in from.children.iter() {
                                 nodes.push_back((key_expr, child));
-                            } else if ke_chunk_intersects_suffix {
-                                nodes.push_back((rest, child));
+                            }
+                        } else if ke_chunk_intersects_suffix {
+                            // attitude-service's change (vendor/README.md): a verbatim next chunk
+                            // intersects only the child of that very name and the wild children;
+                            // every other child would be visited for nothing (one visit per
+                            // declared sibling, for every message on an undeclared key).
+                            // (A few children are visited faster than looked up.)
+                            let next = rest.as_str().split('/').next().unwrap_or("");
+                            if from.children.len() <= LOOKUP_ABOVE_CHILDREN || is_wild_chunk(next) {
+                                for child in from.children.iter() {
+                                    nodes.push_back((rest, child));
+                                }
+                            } else {
+                                // The child's suffix is "/next": the key's own text from the '/'
+                                // that split_once cut at.
+                                let at = ke_chunk.as_str().len();
+                                let named = &key_expr.as_str()[at..at + 1 + next.len()];
+                                if let Some(child) = from.children.get(named) {
+                                    nodes.push_back((rest, child));
+                                }
+                                for wild in &from.wild_children {
+                                    if let Some(child) = from.children.get(wild.as_str()) {
+                                        nodes.push_back((rest, child));
+                                    }
+                                }
                             }
                         }
                         if (suffix_is_wild && ke_chunk_intersects_suffix) || ke_chunk_is_wild {

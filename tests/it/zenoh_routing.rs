@@ -1,0 +1,190 @@
+//! The vendored zenoh (vendor/README.md) finds the subscribers of a message on an undeclared key by
+//! looking its verbatim chunks up among their siblings instead of visiting every sibling. What it
+//! delivers must not change: every subscriber whose key expression intersects the message's key gets
+//! it, once, and no other does — for keys under hundreds of declared siblings, wild subscriptions
+//! beside them (`*`, `**`, `$*`, verbatim `@` chunks), and after the wild ones are undeclared.
+//! Through a real link: the sender's session routes each put on its tables of the receiver's
+//! subscriptions, and the receiver's routes what arrives on its own; once more with the sender holding
+//! a declared publisher on every sibling key (as the service does for its fast vehicles). (Within one
+//! session zenoh delivers to its own subscribers without these tables, so that case would not test
+//! the change.)
+
+use crate::common::{free_port, open_zenoh};
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use zenoh::key_expr::KeyExpr;
+
+const SIBLINGS: usize = 300;
+
+fn wild() -> Vec<&'static str> {
+    vec![
+        "zr/*/gyro",
+        "zr/**",
+        "zr/v1$*/x",
+        "zr/$*3/est",
+        "zr/v5/*",
+        "zr/v7/**/deep",
+        "**/est",
+        "zr/*/est/more",
+    ]
+}
+
+fn messages() -> Vec<&'static str> {
+    vec![
+        "zr/v7/gyro",
+        "zr/v77/est",
+        "zr/v13/x",
+        "zr/zzz/est",
+        "zr/v3/est",
+        "zr/v5/imu",
+        "zr/v7/a/b/deep",
+        "zr/v2/est/more",
+        "zr/@hidden/est",
+        "zr/v299/est",
+        "zr/v300/est",
+        "zr",
+        "zr/v9",
+        "other/v9/est",
+        "zr/v1/x",
+    ]
+}
+
+type Seen = Arc<Mutex<BTreeMap<String, Vec<String>>>>;
+
+async fn subscribe(
+    session: &zenoh::Session,
+    key: &str,
+    seen: &Seen,
+) -> zenoh::pubsub::Subscriber<()> {
+    let seen = seen.clone();
+    let name = key.to_string();
+    session
+        .declare_subscriber(key.to_string())
+        .callback(move |s| {
+            seen.lock()
+                .unwrap()
+                .entry(name.clone())
+                .or_default()
+                .push(s.key_expr().to_string())
+        })
+        .await
+        .unwrap()
+}
+
+/// Puts every message (undeclared keys), then a sentinel, and waits for the sentinel; returns, per
+/// subscription, the keys it received.
+async fn deliver(sender: &zenoh::Session, seen: &Seen) -> BTreeMap<String, Vec<String>> {
+    seen.lock().unwrap().clear();
+    for m in messages() {
+        sender.put(m, "x").await.unwrap();
+    }
+    let sentinel = "zr-sentinel";
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        sender.put(sentinel, "x").await.unwrap();
+        if seen.lock().unwrap().contains_key(sentinel) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the sentinel never arrived");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let mut got = seen.lock().unwrap().clone();
+    got.remove(sentinel);
+    got
+}
+
+fn expected(subscriptions: &[String]) -> BTreeMap<String, Vec<String>> {
+    let mut want = BTreeMap::new();
+    for sub in subscriptions {
+        let k = KeyExpr::try_from(sub.as_str()).unwrap();
+        let hits: Vec<String> = messages()
+            .into_iter()
+            .filter(|m| k.intersects(&KeyExpr::try_from(*m).unwrap()))
+            .map(String::from)
+            .collect();
+        if !hits.is_empty() {
+            want.insert(sub.clone(), hits);
+        }
+    }
+    want
+}
+
+fn sorted(mut m: BTreeMap<String, Vec<String>>) -> BTreeMap<String, BTreeSet<String>> {
+    let mut out = BTreeMap::new();
+    for (k, v) in m.iter_mut() {
+        let set: BTreeSet<String> = v.iter().cloned().collect();
+        assert_eq!(set.len(), v.len(), "{k} received a message twice: {v:?}");
+        out.insert(k.clone(), set);
+    }
+    out
+}
+
+async fn check(sender_publishers: bool) {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let receiver = open_zenoh(std::slice::from_ref(&endpoint), &[]).await;
+    let sender = open_zenoh(&[], std::slice::from_ref(&endpoint)).await;
+    let seen: Seen = Arc::default();
+    let mut plain: Vec<String> = (0..SIBLINGS).map(|i| format!("zr/v{i}/est")).collect();
+    plain.push("zr/@hidden/est".into());
+    let mut publishers = Vec::new();
+    if sender_publishers {
+        for key in plain.iter() {
+            publishers.push(sender.declare_publisher(key.clone()).await.unwrap());
+        }
+    }
+    let mut subs = Vec::new();
+    for key in plain.iter() {
+        subs.push(subscribe(&receiver, key, &seen).await);
+    }
+    let mut wild_subs = Vec::new();
+    for key in wild() {
+        wild_subs.push(subscribe(&receiver, key, &seen).await);
+    }
+    let _sentinel = subscribe(&receiver, "zr-sentinel", &seen).await;
+    // The sender's puts reach the receiver's subscriptions once their declarations have arrived.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let sender_session = &sender;
+    let linked = sender_publishers;
+
+    let mut all: Vec<String> = plain.clone();
+    all.extend(wild().into_iter().map(String::from));
+    assert_eq!(
+        sorted(deliver(sender_session, &seen).await),
+        sorted(expected(&all)),
+        "with the wild subscriptions (sender's publishers: {linked})"
+    );
+    for s in wild_subs {
+        s.undeclare().await.unwrap();
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(
+        sorted(deliver(sender_session, &seen).await),
+        sorted(expected(&plain)),
+        "after the wild subscriptions were undeclared (sender's publishers: {linked})"
+    );
+    // And declared again: found again, once each.
+    for key in wild() {
+        subs.push(subscribe(&receiver, key, &seen).await);
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(
+        sorted(deliver(sender_session, &seen).await),
+        sorted(expected(&all)),
+        "with the wild subscriptions declared again (sender's publishers: {linked})"
+    );
+    drop(subs);
+    drop(publishers);
+    sender.close().await.unwrap();
+    receiver.close().await.unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn undeclared_keys_reach_exactly_the_intersecting_subscribers() {
+    check(false).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn undeclared_keys_reach_exactly_the_intersecting_subscribers_beside_declared_publishers() {
+    check(true).await;
+}
