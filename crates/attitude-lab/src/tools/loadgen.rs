@@ -6,11 +6,13 @@
 //!
 //! Its puts have the service's own quality of service: congestion control `Block` (never a silent
 //! drop), not `express` (zenoh batches what queues up while the link is busy). Plain puts by default, not
-//! a publisher declared per key: zenoh 1.10 resolves every undeclared key a peer receives or puts against
-//! all the declarations it knows, so thousands of declared keys would cost the receiver (service or
-//! echo) far more than they save. `--advanced` puts through advanced publishers ([`attitude_service::tools::publish`]: a
-//! sequence number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a
-//! token each: what that costs the service is measured in BENCHMARKS.md.
+//! a publisher declared per key: real vehicles are separate sessions with a key or two each, and one
+//! process declaring thousands would measure what holding them costs zenoh (as published, zenoh 1.10.2
+//! visits every declaration for each undeclared key a peer receives or puts; the service's and this
+//! tool's zenoh is patched, vendor/README.md, a stock router's is not) rather than the service.
+//! `--advanced` puts through advanced publishers ([`attitude_service::tools::publish`]: a sequence
+//! number, a cache, a heartbeat), one per key, which declare a publisher, a queryable and a token each:
+//! what that costs the service is measured in BENCHMARKS.md.
 
 use attitude_service::fleet::sender::{RoutedSender, FLUSH_S};
 use attitude_service::tools::publish::{Inputs, Publishing};
