@@ -144,24 +144,22 @@ async fn check(sender_publishers: bool) {
     let _sentinel = subscribe(&receiver, "zr-sentinel", &seen).await;
     // The sender's puts reach the receiver's subscriptions once their declarations have arrived.
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let sender_session = &sender;
-    let linked = sender_publishers;
 
     let mut all: Vec<String> = plain.clone();
     all.extend(wild().into_iter().map(String::from));
     assert_eq!(
-        sorted(deliver(sender_session, &seen).await),
+        sorted(deliver(&sender, &seen).await),
         sorted(expected(&all)),
-        "with the wild subscriptions (sender's publishers: {linked})"
+        "with the wild subscriptions (sender's publishers: {sender_publishers})"
     );
     for s in wild_subs {
         s.undeclare().await.unwrap();
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(
-        sorted(deliver(sender_session, &seen).await),
+        sorted(deliver(&sender, &seen).await),
         sorted(expected(&plain)),
-        "after the wild subscriptions were undeclared (sender's publishers: {linked})"
+        "after the wild subscriptions were undeclared (sender's publishers: {sender_publishers})"
     );
     // And declared again: found again, once each.
     for key in wild() {
@@ -169,9 +167,9 @@ async fn check(sender_publishers: bool) {
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(
-        sorted(deliver(sender_session, &seen).await),
+        sorted(deliver(&sender, &seen).await),
         sorted(expected(&all)),
-        "with the wild subscriptions declared again (sender's publishers: {linked})"
+        "with the wild subscriptions declared again (sender's publishers: {sender_publishers})"
     );
     drop(subs);
     drop(publishers);
