@@ -3,6 +3,10 @@
 //! delivers must not change: every subscriber whose key expression intersects the message's key gets
 //! it, once, and no other does — for keys under hundreds of declared siblings, wild subscriptions
 //! beside them (`*`, `**`, `$*`, verbatim `@` chunks), and after the wild ones are undeclared.
+//! The vendored zenoh also keeps the route of an undeclared key, by its text, until a declaration,
+//! a face or the topology changes: the routes must follow every such change — subscriptions declared
+//! and undeclared (above), and peers that arrive, subscribe and leave after the keys' routes were
+//! kept (`routes_follow_peers_that_come_and_go`).
 //! Through a real link: the sender's session routes each put on its tables of the receiver's
 //! subscriptions, and the receiver's routes what arrives on its own; once more with the sender holding
 //! a declared publisher on every sibling key (as the service does for its fast vehicles). (Within one
@@ -185,4 +189,113 @@ async fn undeclared_keys_reach_exactly_the_intersecting_subscribers() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn undeclared_keys_reach_exactly_the_intersecting_subscribers_beside_declared_publishers() {
     check(true).await;
+}
+
+/// Puts `keys` from `sender` (undeclared keys) until each of `subscribers` has received every key it
+/// should, or the deadline passes; then, after a pause, returns what each one received.
+async fn put_until(
+    sender: &zenoh::Session,
+    keys: &[&str],
+    want: &BTreeMap<String, BTreeSet<String>>,
+    seen: &Seen,
+) -> BTreeMap<String, BTreeSet<String>> {
+    seen.lock().unwrap().clear();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let have = |seen: &Seen| -> BTreeMap<String, BTreeSet<String>> {
+        seen.lock()
+            .unwrap()
+            .iter()
+            .map(|(k, v)| (k.clone(), v.iter().cloned().collect()))
+            .collect()
+    };
+    while Instant::now() < deadline && have(seen) != *want {
+        for k in keys {
+            sender.put(*k, "x").await.unwrap();
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    have(seen)
+}
+
+fn want(pairs: &[(&str, &[&str])]) -> BTreeMap<String, BTreeSet<String>> {
+    pairs
+        .iter()
+        .map(|(sub, keys)| {
+            (
+                sub.to_string(),
+                keys.iter().map(|k| k.to_string()).collect(),
+            )
+        })
+        .collect()
+}
+
+/// A sender puts on two undeclared keys, often enough that their routes are kept, while peers
+/// connect to it, subscribe, unsubscribe and leave. Each change must reach the next puts: a kept
+/// route that missed a change would starve a new subscriber.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn routes_follow_peers_that_come_and_go() {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let sender = open_zenoh(std::slice::from_ref(&endpoint), &[]).await;
+    // Siblings enough for the look-up path, declared by the sender itself.
+    let mut own = Vec::new();
+    for i in 0..SIBLINGS {
+        own.push(
+            sender
+                .declare_subscriber(format!("zr/v{i}/own"))
+                .callback(|_| {})
+                .await
+                .unwrap(),
+        );
+    }
+    let keys = ["zr/v1/est", "zr/v2/est"];
+    let seen: Seen = Arc::default();
+
+    // No subscriber anywhere yet: the routes kept are empty ones.
+    let nobody = put_until(&sender, &keys, &BTreeMap::new(), &seen).await;
+    assert_eq!(nobody, BTreeMap::new(), "nobody subscribed yet");
+
+    // A peer arrives and subscribes to one key, then a wild expression too.
+    let first = open_zenoh(&[], std::slice::from_ref(&endpoint)).await;
+    let one = subscribe(&first, "zr/v1/est", &seen).await;
+    let expect = want(&[("zr/v1/est", &["zr/v1/est"])]);
+    assert_eq!(
+        put_until(&sender, &keys, &expect, &seen).await,
+        expect,
+        "a peer arrived"
+    );
+    let wild = subscribe(&first, "zr/*/est", &seen).await;
+    let expect = want(&[
+        ("zr/v1/est", &["zr/v1/est"]),
+        ("zr/*/est", &["zr/v1/est", "zr/v2/est"]),
+    ]);
+    assert_eq!(
+        put_until(&sender, &keys, &expect, &seen).await,
+        expect,
+        "it subscribed again"
+    );
+
+    // It drops the plain one, then leaves.
+    one.undeclare().await.unwrap();
+    let expect = want(&[("zr/*/est", &["zr/v1/est", "zr/v2/est"])]);
+    assert_eq!(
+        put_until(&sender, &keys, &expect, &seen).await,
+        expect,
+        "it unsubscribed"
+    );
+    drop(wild);
+    first.close().await.unwrap();
+
+    // Another peer, on the same endpoint: it must get what it asks for, no more.
+    let second = open_zenoh(&[], std::slice::from_ref(&endpoint)).await;
+    let _two = subscribe(&second, "zr/v2/est", &seen).await;
+    let expect = want(&[("zr/v2/est", &["zr/v2/est"])]);
+    assert_eq!(
+        put_until(&sender, &keys, &expect, &seen).await,
+        expect,
+        "a second peer arrived"
+    );
+    second.close().await.unwrap();
+    drop(own);
+    sender.close().await.unwrap();
 }

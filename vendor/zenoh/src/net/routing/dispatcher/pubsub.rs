@@ -34,7 +34,7 @@ use crate::net::routing::{
         local_resources::{LocalResourceInfoTrait, LocalResources},
         tables::InterRegionFilter,
     },
-    gateway::{get_or_set_route, node_id_as_source, Direction, RouteBuilder},
+    gateway::{data_routes_epoch, get_or_set_route, node_id_as_source, Direction, RouteBuilder},
     hat::{DispatcherContext, SendDeclare},
 };
 
@@ -227,7 +227,19 @@ fn get_data_route(
             node_id,
             compute_route,
         ),
-        None => compute_route(),
+        // attitude-service's change (vendor/README.md): a key without a resource of its own keeps
+        // its route too, by its text.
+        None => match expr.full_text() {
+            Some(key) => tables.data.undeclared_data_routes.get_or_set(
+                key,
+                tables.data.routes_version,
+                data_routes_epoch(),
+                &src_face.region,
+                node_id,
+                compute_route,
+            ),
+            None => compute_route(),
+        },
     }
 }
 

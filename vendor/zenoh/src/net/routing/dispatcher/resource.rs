@@ -19,7 +19,10 @@ use std::{
     fmt::Debug,
     hash::{Hash, Hasher},
     ops::{Deref, DerefMut},
-    sync::{Arc, RwLock, Weak},
+    sync::{
+        atomic::{AtomicU64, Ordering},
+        Arc, RwLock, Weak,
+    },
 };
 
 use zenoh_collections::{IntHashMap, IntHashSet, SingleOrBoxHashSet};
@@ -294,6 +297,94 @@ impl<T> Routes<T> {
             aux(&mut routes);
             self.mapping.insert(*region, routes);
         }
+    }
+}
+
+/// attitude-service's change (vendor/README.md): counts every change that may alter a data route
+/// (each call of a hat's `disable_data_routes`, which is how zenoh empties the route caches of
+/// declared resources). The cache of routes for undeclared keys is valid for one value of it and the
+/// tables' `routes_version`. It is process-wide: a change in one runtime empties every runtime's
+/// cache, which only costs recomputations.
+static DATA_ROUTES_EPOCH: AtomicU64 = AtomicU64::new(0);
+
+/// attitude-service's change (vendor/README.md): called wherever a declared resource's data routes
+/// are disabled, under the tables' write lock.
+pub(crate) fn data_routes_changed() {
+    DATA_ROUTES_EPOCH.fetch_add(1, Ordering::Relaxed);
+}
+
+/// attitude-service's change (vendor/README.md): the count of `data_routes_changed`.
+pub(crate) fn data_routes_epoch() -> u64 {
+    DATA_ROUTES_EPOCH.load(Ordering::Relaxed)
+}
+
+/// attitude-service's change (vendor/README.md): at most this many undeclared keys keep a route;
+/// the cache is emptied when it is full and a new key arrives.
+const UNDECLARED_ROUTES_MAX: usize = 16_384;
+
+/// attitude-service's change (vendor/README.md): the data routes of keys that have no resource of
+/// their own, by the key's text. zenoh caches a route only on a declared resource, so a message on
+/// an undeclared key had its route computed again each time (matching the key against every
+/// subscription's resource, then each hat's route): most of the routing cost of a service that
+/// receives and publishes on one key per vehicle without declaring them.
+#[derive(Default)]
+pub(crate) struct UndeclaredDataRoutes {
+    inner: RwLock<UndeclaredDataRoutesInner>,
+}
+
+#[derive(Default)]
+struct UndeclaredDataRoutesInner {
+    epoch: u64,
+    routes: ahash::HashMap<Box<str>, DataRoutes>,
+}
+
+impl UndeclaredDataRoutes {
+    /// The route of `key` from `region`/`node_id`, computed once per `version` and `epoch`
+    /// (`data_routes_epoch`). Called under the tables' read lock, so no change of this runtime's
+    /// routes can happen between the epoch's reading and the route's storing.
+    pub(crate) fn get_or_set(
+        &self,
+        key: &str,
+        version: RoutesVersion,
+        epoch: u64,
+        region: &Region,
+        node_id: NodeId,
+        compute_route: impl FnOnce() -> Arc<Route>,
+    ) -> Arc<Route> {
+        {
+            let inner = self.inner.read().unwrap();
+            if inner.epoch == epoch {
+                if let Some(route) = inner
+                    .routes
+                    .get(key)
+                    .and_then(|routes| routes.get_route(version, region, node_id))
+                {
+                    return route.clone();
+                }
+            }
+        }
+        let route = compute_route();
+        let mut inner = self.inner.write().unwrap();
+        if inner.epoch != epoch
+            || (inner.routes.len() >= UNDECLARED_ROUTES_MAX && !inner.routes.contains_key(key))
+        {
+            inner.routes.clear();
+            inner.epoch = epoch;
+        }
+        match inner.routes.get_mut(key) {
+            Some(routes) => routes.set_route(version, region, node_id, route.clone()),
+            None => {
+                let mut routes = DataRoutes::default();
+                routes.set_route(version, region, node_id, route.clone());
+                inner.routes.insert(key.into(), routes);
+            }
+        }
+        route
+    }
+
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
+        self.inner.read().unwrap().routes.len()
     }
 }
 
@@ -1136,7 +1227,50 @@ pub(crate) fn register_expr_interest(
 
 #[cfg(test)]
 mod tests {
-    use super::Resource;
+    use std::{cell::Cell, sync::Arc};
+
+    use zenoh_protocol::core::Region;
+
+    use super::{Resource, UndeclaredDataRoutes, UNDECLARED_ROUTES_MAX};
+
+    /// attitude-service's change (vendor/README.md): a kept route is returned until the epoch, the
+    /// tables' version, the source region or node differ; the cache stays bounded.
+    #[test]
+    fn undeclared_data_routes() {
+        let cache = UndeclaredDataRoutes::default();
+        let computed = Cell::new(0);
+        let epoch = Cell::new(7);
+        let get = |key: &str, version: u64, region: Region, node: u16| {
+            cache.get_or_set(key, version, epoch.get(), &region, node, || {
+                computed.set(computed.get() + 1);
+                Arc::new(Vec::new())
+            })
+        };
+        let first = get("P/v1/gyro", 0, Region::North, 0);
+        assert!(Arc::ptr_eq(&first, &get("P/v1/gyro", 0, Region::North, 0)));
+        assert_eq!(computed.get(), 1, "kept");
+        get("P/v1/gyro", 1, Region::North, 0);
+        assert_eq!(computed.get(), 2, "another routes_version");
+        get("P/v1/gyro", 1, Region::Local, 0);
+        get("P/v1/gyro", 1, Region::North, 3);
+        assert_eq!(computed.get(), 4, "another region, another node");
+        get("P/v1/gyro", 1, Region::Local, 0);
+        get("P/v1/gyro", 1, Region::North, 3);
+        get("P/v2/gyro", 1, Region::North, 0);
+        assert_eq!(computed.get(), 5, "each kept, a new key computed");
+        epoch.set(8);
+        get("P/v1/gyro", 1, Region::Local, 0);
+        assert_eq!(computed.get(), 6, "a declaration changed");
+        assert_eq!(cache.len(), 1, "the routes of the epoch before are dropped");
+        for i in 0..UNDECLARED_ROUTES_MAX + 10 {
+            get(&format!("P/v{i}/x"), 1, Region::North, 0);
+        }
+        assert!(
+            cache.len() <= UNDECLARED_ROUTES_MAX,
+            "bounded: {}",
+            cache.len()
+        );
+    }
 
     #[test]
     fn split_first_chunk() {

@@ -95,6 +95,16 @@ impl<'a> RoutingExpr<'a> {
         full_expr.ok()
     }
 
+    /// attitude-service's change (vendor/README.md): the key's whole text; borrowed, not built,
+    /// when the prefix is the root (a key sent without a declared prefix).
+    pub(crate) fn full_text(&self) -> Option<&str> {
+        if self.prefix.expr().is_empty() {
+            Some(self.suffix)
+        } else {
+            self.key_expr().map(|k| k.as_str())
+        }
+    }
+
     pub(crate) fn key_expr(&self) -> Option<&keyexpr> {
         self.key_expr
             .get_or_init(|| self.compute_key_expr())
@@ -145,6 +155,8 @@ pub(crate) struct TablesData {
 
     pub(crate) hats: RegionMap<HatTablesData>,
     pub(crate) routes_version: RoutesVersion,
+    /// attitude-service's change (vendor/README.md).
+    pub(crate) undeclared_data_routes: UndeclaredDataRoutes,
 }
 
 impl Debug for TablesData {
@@ -210,6 +222,7 @@ impl TablesData {
             #[cfg(feature = "stats")]
             stats,
             routes_version: 0,
+            undeclared_data_routes: UndeclaredDataRoutes::default(),
         })
     }
 

@@ -42,7 +42,8 @@ use super::{
         face::FaceState,
         pubsub::SubscriberInfo,
         tables::{
-            NodeId, QueryTargetQablSet, Resource, Route, RoutingExpr, TablesData, TablesLock,
+            data_routes_changed, NodeId, QueryTargetQablSet, Resource, Route, RoutingExpr,
+            TablesData, TablesLock,
         },
     },
     RoutingContext,
@@ -272,6 +273,9 @@ pub(crate) trait HatBaseTrait: Any {
 
     /// Disables this hat's data routes for the given resource and all its matches.
     fn disable_data_routes(&mut self, res: &mut Arc<Resource>) {
+        // attitude-service's change (vendor/README.md): the routes of undeclared keys are cached
+        // too, and any of them may be among this resource's matches.
+        data_routes_changed();
         if res.ctx.is_some() {
             get_mut_unchecked(res).context_mut().hats[self.region()].disable_data_routes();
             get_mut_unchecked(res).context_mut().disable_data_routes();
