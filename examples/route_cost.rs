@@ -9,7 +9,8 @@
 //! over the declared key expressions. As published, zenoh 1.10.2 visited every declared sibling on that
 //! walk, so the cost grew with the number of subscriptions, which is why a fleet uses 16 routes and few
 //! subscriptions per member, not a route per vehicle or hundreds of buckets; this build's zenoh looks a
-//! verbatim chunk up instead (vendor/README.md), a stock router does not.
+//! verbatim chunk up instead and keeps an undeclared key's route until a declaration changes
+//! (vendor/README.md), a stock router does neither.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
