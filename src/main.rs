@@ -7,6 +7,9 @@ use attitude_service::cli::runtime::block_on_until_signal;
 use attitude_service::cli::{serve, simulate};
 use clap::{Parser, Subcommand};
 
+#[global_allocator]
+static GLOBAL: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
+
 #[derive(Parser)]
 #[command(
     name = "attitude-service",

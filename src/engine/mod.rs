@@ -115,8 +115,10 @@ pub struct Inbound {
 /// got to them, so a slow worker or a busy machine releases nothing from a reorder window early.
 enum Input {
     Measurement(Measurement, f64),
+    /// (Boxed: the request is four times a measurement's size, and every input of the inbox would
+    /// otherwise be as large.)
     Reset(
-        ResetRequest,
+        Box<ResetRequest>,
         tokio::sync::oneshot::Sender<Result<ResetReplyMsg, Rejection>>,
     ),
     /// Release what the reorder window holds beyond its wall-time limit.
@@ -506,7 +508,7 @@ impl Engine {
         v.inbox
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .push_back(Input::Reset(request, tx));
+            .push_back(Input::Reset(Box::new(request), tx));
         self.schedule(&v);
         Ok(rx)
     }

@@ -152,17 +152,18 @@ impl Intake {
             tracing::debug!(key = %sample.key_expr(), "a delete on an input key: ignored");
             return;
         }
-        let key = sample.key_expr().as_str().to_string();
-        let vehicle = match self.engine.keys.classify(&key) {
+        // (The vehicle, for its share of the limits, is read from the sample's own key: not copied.)
+        let key = sample.key_expr().as_str();
+        let vehicle = match self.engine.keys.classify(key) {
             Some(Received::Vehicle {
                 vehicle,
                 leaf: Leaf::Gyro | Leaf::Vectors | Leaf::Imu,
                 ..
-            }) => Some(vehicle.to_string()),
+            }) => Some(vehicle),
             _ => None,
         };
         let inbound = Inbound {
-            key,
+            key: key.to_string(),
             payload: sample.payload().to_bytes().into_owned(),
         };
         let ingest = Ingest::Input {
@@ -172,7 +173,7 @@ impl Intake {
         };
         self.engine
             .admission
-            .offer(&self.engine, &self.tx, vehicle.as_deref(), ingest, may_wait);
+            .offer(&self.engine, &self.tx, vehicle, ingest, may_wait);
     }
 
     /// A plain subscription's sample (routed inputs, standby batches, the ROS 2 edge's). May wait for

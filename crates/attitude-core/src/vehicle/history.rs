@@ -122,6 +122,18 @@ pub(super) struct History {
     spare: Option<(Box<Processing>, usize)>,
 }
 
+/// `dst` made equal to `src`, in place when they hold the same keys (a kept state's maps of sensor
+/// names change rarely; a map's own `clone_from` allocates every node and key again).
+fn copy_map<V: Clone>(dst: &mut BTreeMap<String, V>, src: &BTreeMap<String, V>) {
+    if dst.len() == src.len() && dst.keys().eq(src.keys()) {
+        for (d, s) in dst.values_mut().zip(src.values()) {
+            d.clone_from(s);
+        }
+    } else {
+        dst.clone_from(src);
+    }
+}
+
 /// Bytes a map entry costs beyond its key and value (a B-tree node's share, roughly).
 const MAP_ENTRY_OVERHEAD: usize = 48;
 
@@ -290,14 +302,17 @@ impl VehicleState {
         *last_t = self.last_t;
         *last_key = self.last_key;
         *last_gyro = self.last_gyro;
-        gate.clone_from(&self.gate);
+        copy_map(gate, &self.gate);
         *consecutive_gated = self.consecutive_gated;
         *consecutive_failures = self.consecutive_failures;
         *rollbacks = self.rollbacks;
-        reinits.clone_from(&self.reinits);
+        copy_map(reinits, &self.reinits);
         last_good.clone_from(&self.last_good);
-        sensor_state.clone_from(&self.sensor_state);
-        *ahrs = self.ahrs.clone().map(Box::new);
+        copy_map(sensor_state, &self.sensor_state);
+        match (ahrs.as_deref_mut(), &self.ahrs) {
+            (Some(kept), Some(a)) => kept.clone_from(a),
+            (_, a) => *ahrs = a.clone().map(Box::new),
+        }
         *last_imu_estimate_t = self.last_imu_estimate_t;
     }
 

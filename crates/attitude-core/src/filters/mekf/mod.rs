@@ -424,6 +424,33 @@ impl FilterCore for Mekf {
         )
     }
 
+    /// In place when `into` already holds an MEKF's state (a vehicle's history keeps one every
+    /// quarter second of samples into the same slots): the variant's 650 bytes are written, not a
+    /// whole `FilterState` built and moved, which is sized for the largest filter's.
+    fn state_into(driver: &Driver<Self>, into: &mut FilterState) {
+        let FilterState::Mekf(d, s) = into else {
+            *into = Self::state(driver);
+            return;
+        };
+        let m = driver.core();
+        *d = driver.driver_state();
+        // (Every field named: one added to the state does not compile until it is copied here.)
+        let MekfState {
+            gyro,
+            gyro_errors,
+            q,
+            bias,
+            p,
+            diagnostics,
+        } = s;
+        *gyro = m.gyro;
+        *gyro_errors = m.gyro_errors;
+        *q = m.q;
+        *bias = m.bias;
+        *p = m.p;
+        diagnostics.clone_from(&m.diagnostics);
+    }
+
     fn bias_rad_s(&self) -> Vector3<f64> {
         self.bias
     }
