@@ -36,7 +36,8 @@ use crate::service::persist::{self, SavedCounters};
 use crate::vehicle::{Event, ResetRequest, Stream, VehicleState};
 use crate::wire::keys::{Keys, Leaf};
 use crate::wire::{
-    validate_vehicle_id, EstimateMsg, RejectCode, Rejection, ResetMsg, ResetReplyMsg,
+    validate_vehicle_id, write_estimate, EstimateMsg, RejectCode, Rejection, ResetMsg,
+    ResetReplyMsg,
 };
 use std::collections::HashMap;
 use std::sync::atomic::Ordering;
@@ -646,10 +647,8 @@ impl Engine {
         let wanted = outlet.wanted();
         let payload = if wanted || self.hooks.wants_bytes(&v.id) {
             let mut buf = Vec::with_capacity(out.last_len.load(Ordering::Relaxed) + 64);
-            if let Err(err) = serde_json::to_writer(&mut buf, &e) {
-                tracing::error!(vehicle = %v.id, %err, "cannot serialise an estimate");
-                return;
-            }
+            // (serde_json's bytes, written without its per-field machinery: wire::write_estimate.)
+            write_estimate(&mut buf, &e);
             out.last_len.store(buf.len(), Ordering::Relaxed);
             Some(buf)
         } else {

@@ -8,6 +8,7 @@
 
 mod admin;
 mod estimate;
+mod estimate_json;
 mod input;
 pub mod keys;
 mod rejection;
@@ -15,6 +16,7 @@ mod reset;
 
 pub use admin::*;
 pub use estimate::*;
+pub use estimate_json::write_estimate;
 pub use input::*;
 pub use rejection::*;
 pub use reset::*;
