@@ -19,7 +19,7 @@ use crate::filters::{
     FilterSpec, InitialState, SAME_INSTANT_S,
 };
 use crate::rejection::{RejectCode, Rejection};
-use crate::rng::{fnv1a as fnv, FNV_OFFSET};
+use crate::rng::{fnv1a as fnv, fnv1a_u64, FNV_OFFSET};
 use crate::sensors::model::{SensorState, Verdict};
 use crate::sensors::{
     Aspect, GyroSample, ImuSample, Measurement, ObservationSet, VectorObservation,
@@ -213,20 +213,19 @@ fn seed_of(id: &str, generation: u64) -> u64 {
     fnv(id.bytes().chain(generation.to_le_bytes()), FNV_OFFSET)
 }
 
-/// The bytes of a vector, for the hash (no allocation: they are streamed into it).
-fn bits(v: &Vector3<f64>) -> impl Iterator<Item = u8> {
-    let v = *v;
-    (0..3).flat_map(move |i| v[i].to_bits().to_le_bytes())
+/// FNV-1a of a vector's bytes (its three numbers' little-endian bits), continuing from `h`.
+fn fnv_vector(v: &Vector3<f64>, h: u64) -> u64 {
+    v.iter().fold(h, |h, x| fnv1a_u64(x.to_bits(), h))
 }
 
 /// Identifies a sample's content (duplicate detection).
 fn fingerprint(m: &Measurement) -> u64 {
     match m {
-        Measurement::Gyro(g) => fnv(bits(&g.omega_body_rad_s), FNV_OFFSET),
+        Measurement::Gyro(g) => fnv_vector(&g.omega_body_rad_s, FNV_OFFSET),
         Measurement::Vectors(set) => set.observations.iter().fold(FNV_OFFSET, |h, o| {
-            let h = fnv(bits(&o.body), h);
-            let h = fnv(bits(&o.reference), h);
-            let h = fnv(o.sigma.to_bits().to_le_bytes(), h);
+            let h = fnv_vector(&o.body, h);
+            let h = fnv_vector(&o.reference, h);
+            let h = fnv1a_u64(o.sigma.to_bits(), h);
             fnv(o.sensor.as_deref().unwrap_or("").bytes().chain([0]), h)
         }),
         Measurement::Imu(s) => imu_fingerprint(s),
@@ -234,10 +233,10 @@ fn fingerprint(m: &Measurement) -> u64 {
 }
 
 fn imu_fingerprint(s: &ImuSample) -> u64 {
-    let h = fnv(bits(&s.gyr_rad_s), FNV_OFFSET);
-    let h = fnv(bits(&s.acc_m_s2), h);
+    let h = fnv_vector(&s.gyr_rad_s, FNV_OFFSET);
+    let h = fnv_vector(&s.acc_m_s2, h);
     match &s.mag {
-        Some(m) => fnv(bits(m), h),
+        Some(m) => fnv_vector(m, h),
         None => h,
     }
 }
@@ -264,7 +263,7 @@ impl Seen {
     fn fingerprint(&self) -> u64 {
         match self {
             Seen::Hashed(h) => *h,
-            Seen::Gyro(w) => fnv(bits(w), FNV_OFFSET),
+            Seen::Gyro(w) => fnv_vector(w, FNV_OFFSET),
             Seen::Imu(s) => imu_fingerprint(s),
         }
     }

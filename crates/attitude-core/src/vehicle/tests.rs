@@ -580,3 +580,51 @@ fn an_in_order_stream_passes_the_window_and_repeats_are_still_refused() {
         .iter()
         .any(|e| matches!(e, Event::Estimate(p) if p.replayed)));
 }
+
+/// A sample's fingerprint is FNV-1a over its bytes as checkpoints have always stored it (each vector's
+/// three numbers, then `sigma`, then the sensor name and a 0, per observation; a rate's or an IMU
+/// sample's vectors): a restored vehicle compares new samples with the fingerprints of its checkpoint.
+#[test]
+fn fingerprints_are_fnv1a_of_the_samples_bytes() {
+    let bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let obs = |body: [f64; 3], sigma: f64, sensor: Option<&str>| VectorObservation {
+        body: Vector3::from(body),
+        reference: Vector3::new(0.0, -0.6, 0.8),
+        sigma,
+        sensor: sensor.map(str::to_string),
+        aspect: Default::default(),
+    };
+    let set = Measurement::Vectors(ObservationSet {
+        t_s: 3.0,
+        observations: vec![
+            obs([1.0, 0.0, -0.0], 1e-4, Some("star")),
+            obs([0.6, 0.8, 0.0], 0.25, None),
+        ],
+    });
+    let mut expected = Vec::new();
+    if let Measurement::Vectors(s) = &set {
+        for o in &s.observations {
+            expected.extend(bytes(o.body.as_slice()));
+            expected.extend(bytes(o.reference.as_slice()));
+            expected.extend(o.sigma.to_le_bytes());
+            expected.extend(o.sensor.as_deref().unwrap_or("").bytes());
+            expected.push(0);
+        }
+    }
+    assert_eq!(fingerprint(&set), fnv(expected, FNV_OFFSET));
+    let w = Vector3::new(0.1, -2.5e-3, 7.0);
+    let gyro = Measurement::Gyro(GyroSample {
+        t_s: 3.0,
+        omega_body_rad_s: w,
+    });
+    assert_eq!(fingerprint(&gyro), fnv(bytes(w.as_slice()), FNV_OFFSET));
+    assert_eq!(Seen::of(&gyro).fingerprint(), fingerprint(&gyro));
+    let imu = ImuSample {
+        t_s: 3.0,
+        gyr_rad_s: w,
+        acc_m_s2: Vector3::new(0.0, 0.0, 9.81),
+        mag: Some(Vector3::new(20.0, 0.0, -40.0)),
+    };
+    let all = [w.as_slice(), &[0.0, 0.0, 9.81], &[20.0, 0.0, -40.0]].concat();
+    assert_eq!(imu_fingerprint(&imu), fnv(bytes(&all), FNV_OFFSET));
+}
