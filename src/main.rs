@@ -7,11 +7,13 @@ use attitude_service::cli::runtime::block_on_until_signal;
 use attitude_service::cli::{serve, simulate};
 use clap::{Parser, Subcommand};
 
-#[global_allocator]
-static GLOBAL: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
+// jemalloc is the process's `malloc` (linked in unprefixed), for C and Rust alike: Rust's default
+// allocator calls `malloc`, and the DDS plugin's C library frees memory Rust allocated (a Rust-only
+// allocator beside glibc's aborted there). Freed pages go back from one background thread.
+use tikv_jemalloc_sys as _;
 
 #[allow(non_upper_case_globals)]
-#[export_name = "_rjem_malloc_conf"]
+#[export_name = "malloc_conf"]
 pub static malloc_conf: &[u8] = b"background_thread:true,max_background_threads:1\0";
 
 #[derive(Parser)]
