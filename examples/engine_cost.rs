@@ -18,6 +18,7 @@
 use attitude_service::engine::{Alone, Engine, EstimateOutlet, Inbound, Outlets, Sink};
 use attitude_service::service::config::parse;
 use attitude_service::tools::synthetic::star_set;
+use attitude_service::wire::keys::{Keys, Leaf};
 use attitude_service::wire::GyroMsg;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -94,7 +95,7 @@ fn main() {
     let config = parse(&text, "engine_cost")
         .expect("a valid configuration")
         .service;
-    let prefix = config.key_prefix.clone();
+    let keys = Keys::new(&config.key_prefix);
     let (puts, bytes) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
     let outlets: Outlets = {
         let (puts, bytes) = (puts.clone(), bytes.clone());
@@ -119,11 +120,11 @@ fn main() {
                 .flat_map(|(i, id)| {
                     [
                         Inbound {
-                            key: format!("{prefix}/{id}/vectors"),
+                            key: keys.vehicle(id, Leaf::Vectors),
                             payload: serde_json::to_vec(&star_set(t, i)).unwrap(),
                         },
                         Inbound {
-                            key: format!("{prefix}/{id}/gyro"),
+                            key: keys.vehicle(id, Leaf::Gyro),
                             payload: serde_json::to_vec(&GyroMsg { t, omega: [0.0; 3] }).unwrap(),
                         },
                     ]
