@@ -18,7 +18,7 @@ import sys
 
 STAGES = [
     ("engine threads, all", r"pthread_create\.c:start_thread"),
-    ("dispatcher: decoding the inputs (JSON into samples)", r"wire::input::decode_batch_into \["),
+    ("dispatcher: decoding the inputs (JSON into samples)", r"wire::input::decode_batch_(into|via) \["),
     ("dispatcher: the rest (classify, own, queue, schedule)", None),
     ("vehicle: arrival checks, reorder window, history, filter, gate", r"VehicleState::on_measurement \["),
     ("  of which the filter (propagation and update)", r"Driver<F> as attitude_core::filters::AttitudeFilter>::process \["),

@@ -1,6 +1,7 @@
 //! The inputs `P/V/gyro`, `P/V/vectors`, `P/V/imu`: their messages, their limits and their decoding
 //! (one object or an array), each converted into the core's samples by a validating function.
 
+use super::input_scan::{scan_batch, Scanned};
 use super::{RejectCode, Rejection};
 use crate::sensors::{Aspect, GyroSample, ImuSample, ObservationSet, VectorObservation};
 use nalgebra::Vector3;
@@ -314,7 +315,7 @@ pub fn decode_one<T: DeserializeOwned>(
 
 /// Decodes a payload that holds one item or a JSON array of them (a batch), checking size and UTF-8
 /// first. Every item must be valid; the first invalid one names the batch index.
-pub fn decode_batch<T: DeserializeOwned>(
+pub fn decode_batch<T: DeserializeOwned + Scanned>(
     payload: &[u8],
     limits: &InputLimits,
 ) -> Result<Vec<T>, Rejection> {
@@ -327,34 +328,64 @@ pub fn decode_batch<T: DeserializeOwned>(
 /// returns how many. Faults rank as in `decode_batch` (text that is not JSON, a batch over the limit,
 /// an item of the wrong shape), then the first item `convert` refuses, named by its index in a batch
 /// of more than one. On a fault `out` is left as it was.
-pub fn decode_batch_into<T: DeserializeOwned, M>(
+///
+/// The payload is read by the fast path ([`scan_batch`]) and, where that gives up, by serde from the
+/// start: the same messages either way.
+pub fn decode_batch_into<T: DeserializeOwned + Scanned, M>(
+    payload: &[u8],
+    limits: &InputLimits,
+    convert: impl FnMut(T) -> Result<M, Rejection>,
+    out: &mut Vec<M>,
+) -> Result<usize, Rejection> {
+    decode_batch_via(payload, limits, convert, out, true)
+}
+
+/// [`decode_batch_into`], with or without its fast path (the tests compare the two).
+pub(super) fn decode_batch_via<T: DeserializeOwned + Scanned, M>(
     payload: &[u8],
     limits: &InputLimits,
     mut convert: impl FnMut(T) -> Result<M, Rejection>,
     out: &mut Vec<M>,
+    fast: bool,
 ) -> Result<usize, Rejection> {
     let text = text_of(payload, limits)?;
     let start = out.len();
-    let item = Cell::new(None);
+    // The first item `convert` refuses, with its index; later ones are still read (a fault of the
+    // text outranks it) but no longer converted.
     let mut invalid: Option<(usize, Rejection)> = None;
-    let mut each = |i: usize, m: T| {
+    let mut take = |out: &mut Vec<M>, invalid: &mut Option<(usize, Rejection)>, i: usize, m: T| {
         if invalid.is_none() {
             match convert(m) {
                 Ok(v) => out.push(v),
-                Err(r) => invalid = Some((i, r)),
+                Err(r) => *invalid = Some((i, r)),
             }
         }
     };
-    let mut de = serde_json::Deserializer::from_str(text);
-    let one_or_many = OneOrMany {
-        max_batch: limits.max_batch,
-        item: &item,
-        each: &mut each,
+    let scanned = match fast {
+        true => scan_batch(text, limits.max_batch, &mut |i, m| {
+            take(out, &mut invalid, i, m)
+        }),
+        false => None,
     };
-    let read = de
-        .deserialize_any(one_or_many)
-        .and_then(|n| de.end().map(|()| n))
-        .map_err(|e| refused(e, text, Some(limits.max_batch), item.get()));
+    let read = match scanned {
+        Some(n) => Ok(n),
+        None => {
+            // Read again from the start: what the fast path handed over is forgotten.
+            out.truncate(start);
+            invalid = None;
+            let item = Cell::new(None);
+            let mut de = serde_json::Deserializer::from_str(text);
+            let mut reread = |i, m| take(out, &mut invalid, i, m);
+            let one_or_many = OneOrMany {
+                max_batch: limits.max_batch,
+                item: &item,
+                each: &mut reread,
+            };
+            de.deserialize_any(one_or_many)
+                .and_then(|n| de.end().map(|()| n))
+                .map_err(|e| refused(e, text, Some(limits.max_batch), item.get()))
+        }
+    };
     let result = match (read, invalid) {
         (Err(r), _) => Err(r),
         (Ok(n), Some((i, r))) if n > 1 => Err(Rejection::new(

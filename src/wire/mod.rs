@@ -10,6 +10,7 @@ mod admin;
 mod estimate;
 mod estimate_json;
 mod input;
+mod input_scan;
 pub mod keys;
 mod rejection;
 mod reset;
@@ -18,6 +19,7 @@ pub use admin::*;
 pub use estimate::*;
 pub use estimate_json::write_estimate;
 pub use input::*;
+pub use input_scan::Scanned;
 pub use rejection::*;
 pub use reset::*;
 

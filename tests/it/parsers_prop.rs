@@ -970,7 +970,7 @@ fn check_expectation(
     Ok(())
 }
 
-fn decode_status<T: serde::de::DeserializeOwned>(
+fn decode_status<T: serde::de::DeserializeOwned + attitude_service::wire::Scanned>(
     text: &str,
     limits: &InputLimits,
 ) -> Result<(), Rejection> {
