@@ -177,6 +177,30 @@ impl<'a> Scan<'a> {
     }
 }
 
+impl Scan<'_> {
+    /// An array: `item` reads each element at the cursor; how many.
+    fn array(&mut self, mut item: impl FnMut(&mut Self) -> Option<()>) -> Option<usize> {
+        self.eat(b'[')?;
+        if self.peek()? == b']' {
+            self.i += 1;
+            return Some(0);
+        }
+        let mut n = 0;
+        loop {
+            item(self)?;
+            n += 1;
+            match self.peek()? {
+                b',' => self.i += 1,
+                b']' => {
+                    self.i += 1;
+                    return Some(n);
+                }
+                _ => return None,
+            }
+        }
+    }
+}
+
 /// The fast path of [`super::decode_batch_into`]: the payload's messages, one object or a non-empty
 /// array of at most `max_batch`, each handed to `each` with its index as it is read; their count, or
 /// `None` (then `each` may have been handed some: the caller discards them).
@@ -192,23 +216,15 @@ pub fn scan_batch<T: Scanned>(
             1
         }
         b'[' => {
-            s.i += 1;
             let mut n = 0;
-            loop {
-                if n == max_batch {
-                    return None;
-                }
-                each(n, T::scan(&mut s)?);
+            let read = s.array(|s| {
+                // (More than max_batch, or none: serde's to refuse.)
+                (n < max_batch).then_some(())?;
+                each(n, T::scan(s)?);
                 n += 1;
-                match s.peek()? {
-                    b',' => s.i += 1,
-                    b']' => {
-                        s.i += 1;
-                        break n;
-                    }
-                    _ => return None,
-                }
-            }
+                Some(())
+            })?;
+            (read > 0).then_some(read)?
         }
         _ => return None,
     };
@@ -281,23 +297,8 @@ impl Scanned for VectorsMsg {
             match k {
                 0 => t = Some(s.number()?),
                 _ => {
-                    s.eat(b'[')?;
                     let mut items = Vec::new();
-                    if s.peek()? == b']' {
-                        s.i += 1;
-                    } else {
-                        loop {
-                            items.push(ObservationMsg::scan(s)?);
-                            match s.peek()? {
-                                b',' => s.i += 1,
-                                b']' => {
-                                    s.i += 1;
-                                    break;
-                                }
-                                _ => return None,
-                            }
-                        }
-                    }
+                    s.array(|s| Some(items.push(ObservationMsg::scan(s)?)))?;
                     obs = Some(items);
                 }
             }
