@@ -438,6 +438,96 @@ def test_the_arithmetic_agrees_with_scipy():
         assert view_module.euler_zyx_deg(qe) == pytest.approx((roll, pitch, yaw), abs=1e-7)
 
 
+class _Summaries:
+    """A sink that keeps the summaries and the estimates' ``seq`` (and is slow, as a loaded machine's view is)."""
+
+    def __init__(self, seconds_per_message: float = 0.0):
+        self.summaries: list[dict] = []
+        self.seqs: list[int] = []
+        self.delay = seconds_per_message
+
+    def add_vehicle(self, vehicle, log_ns):
+        pass
+
+    def publish(self, vehicle, leaf, message, log_ns):
+        if leaf == "attitude":
+            self.seqs.append(message["seq"])
+            time.sleep(self.delay)
+
+    def scene(self, poses, log_ns, republish):
+        pass
+
+    def summary(self, message, log_ns):
+        self.summaries.append(message)
+
+
+def _estimate(seq: int) -> dict:
+    return {"vehicle": "v", "t": float(seq), "seq": seq, "q": {"w": 1.0, "x": 0.0, "y": 0.0, "z": 0.0},
+            "sigma_deg": [0.1, 0.1, 0.1], "filter": "mekf"}
+
+
+@pytest.mark.parametrize("hurry", [False, True])
+def test_a_stopped_view_shows_what_it_received_unless_stopped_twice(hurry):
+    """A view stopped while behind (its stream holds 400 estimates, each taking 8 ms to show: 3.2 s of work) still
+    shows every one, and its last summary is the last estimate's; stopped twice, it says how many it did not show."""
+    import zenoh
+
+    from attitude_client import MessageStream
+
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("listen/endpoints", "[]")
+    n = 400
+    with zenoh.open(conf) as session:
+        stream = MessageStream(session, ["drain/*/estimate"], maxsize=n)
+        try:
+            for seq in range(1, n + 1):
+                session.put("drain/v/estimate", json.dumps(_estimate(seq)))
+            wait_until(lambda: len(stream) == n, 10, "the stream to hold every estimate")
+            sink = _Summaries(seconds_per_message=0.008)
+            view = view_module.View(sink, prefix="drain", max_rate=0, republish_s=60.0)
+            stop, second = threading.Event(), threading.Event()
+            stop.set()
+            said: list[str] = []
+            if hurry:
+                threading.Timer(1.2, second.set).start()
+            unshown = view.run(stream, stop, second, said.append)
+        finally:
+            stream.close()
+    if not hurry:
+        assert unshown == 0 and sink.seqs == list(range(1, n + 1)), (unshown, sink.seqs[-3:])
+        assert sink.summaries[-1]["vehicles"][0]["seq"] == n, sink.summaries[-1]
+        assert view.vehicles["v"].received == n
+        assert any("showing the" in s for s in said) and not any("not shown" in s for s in said), said
+    else:
+        received = view.vehicles["v"].received
+        assert 0 < unshown < n and received + unshown == n, (received, unshown)
+        assert said[-1] == f"{unshown} messages received before the stop were not shown (stopped twice)", said
+        assert sink.summaries[-1]["vehicles"][0]["seq"] == received, sink.summaries[-1]
+
+
+def test_a_stopped_view_publishes_the_estimate_its_rate_limit_held():
+    """At 1 estimate/s, the second and third of a burst are held: the stop publishes the newest at once."""
+    sink = _Summaries()
+    view = view_module.View(sink, prefix="drain", max_rate=1.0, republish_s=60.0)
+    now = time.monotonic()
+    for seq in (1, 2, 3):
+        view.handle("drain/v/estimate", _estimate(seq), now + 0.01 * seq)
+    assert sink.seqs == [1]
+
+    class Empty:
+        dropped = 0
+
+        def __len__(self):
+            return 0
+
+    stop = threading.Event()
+    stop.set()
+    assert view.run(Empty(), stop) == 0
+    assert sink.seqs == [1, 3] and sink.summaries[-1]["vehicles"][0]["seq"] == 3, (sink.seqs, sink.summaries)
+
+
 def test_demo_starts_the_demo_and_views_it(tmp_path):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     # 7200 s at 2400×: 3 s, 240 estimates a second per vehicle (the view joins within a second; --max-rate 30 holds

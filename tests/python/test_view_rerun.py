@@ -186,8 +186,8 @@ def run(tmp_path_factory):
         client.put_raw("sc4", "gyro", json.dumps({"t": 100.0, "omega": [0.0, 0.0]}))
         client.put_raw("sc4", "gyro", json.dumps({"t": 0.5, "omega": [0.0, 0.0, 0.0]}))
         wait_until(lambda: len(rejected) == 2, 15, "the two rejections at the test's subscription")
-        # The view got them at the same time as the test's subscription and handles them within a tick (20 ms);
-        # then two republications of the summary (0.25 s apart).
+        # The view got them at the same time as the test's subscription; then republications of the summary (0.25 s
+        # apart). A view behind (a loaded machine) still handles all it received once stopped, before its last summary.
         time.sleep(1.5)
         for s in subs:
             s.undeclare()
@@ -196,7 +196,7 @@ def run(tmp_path_factory):
         view.send_signal(signal.SIGINT)
         code = view.wait(timeout=30)
         log = view_log.read_text(errors="replace")
-        assert code == 0 and "Traceback" not in log, log
+        assert code == 0 and "Traceback" not in log and "not shown" not in log, log
         saver.wait(timeout=30)
         assert rrd.exists(), (work / "saver.log").read_text()
         recording, blueprint = read_rrd(rrd)

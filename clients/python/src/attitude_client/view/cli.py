@@ -137,10 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             _say("the view needs foxglove-sdk: pip install 'attitude-client[view]' (Python 3.10 or later)")
             return 2
 
-    stop = threading.Event()
+    # The first Ctrl-C (or SIGTERM) stops following and shows what was already received; a second skips that.
+    stop, hurry = threading.Event(), threading.Event()
 
     def on_signal(signum, frame):  # noqa: ARG001
-        stop.set()
+        (hurry if stop.is_set() else stop).set()
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
@@ -211,7 +212,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         if demo is not None:
             threading.Thread(target=watch_demo, name="demo-watch", daemon=True).start()
-        view.run(stream, stop)
+        view.run(stream, stop, hurry, _say)
         if view.malformed:
             _say(f"{view.malformed} messages were not understood")
     finally:

@@ -22,7 +22,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -206,10 +206,10 @@ class View:
     def _due(self, v: _Vehicle, now: float) -> bool:
         return self.max_rate <= 0 or now - v.last_sent >= 1.0 / self.max_rate
 
-    def _flush(self, v: _Vehicle, now: float) -> None:
+    def _flush(self, v: _Vehicle, now: float, force: bool = False) -> None:
         if v.pending is None and not v.rejections_pending:
             return
-        if not self._due(v, now):
+        if not force and not self._due(v, now):
             self._held.add(v.name)
             return
         self._held.discard(v.name)
@@ -348,13 +348,13 @@ class View:
             )
         return {"vehicles": rows, "dropped": int(self.dropped)}
 
-    def tick(self, now: float | None = None) -> None:
+    def tick(self, now: float | None = None, force: bool = False) -> None:
         """Publishes what is due: held estimates and rejections, and every ``republish_s`` the 3D state of every
-        vehicle and the summary."""
+        vehicle and the summary; with ``force`` (the last tick) all of them at once."""
         now = time.monotonic() if now is None else now
         for name in list(self._held):
-            self._flush(self.vehicles[name], now)
-        if now - self._last_republish >= self.republish_s:
+            self._flush(self.vehicles[name], now, force)
+        if force or now - self._last_republish >= self.republish_s:
             self._last_republish = now
             log_ns = self._now_ns()
             poses = [self._pose(v) for v in self.vehicles.values() if v.last is not None]
@@ -362,9 +362,11 @@ class View:
                 self.sink.scene(poses, log_ns, republish=True)
             self.sink.summary(self._summary(now), log_ns)
 
-    def run(self, stream: Any, stop: threading.Event) -> None:
+    def run(self, stream: Any, stop: threading.Event, hurry: threading.Event | None = None,
+            say: Callable[[str], None] | None = None) -> int:
         """Takes ``(key, message)`` from ``stream`` (a :class:`~attitude_client.MessageStream`) until ``stop`` is
-        set, publishing as it goes."""
+        set, publishing as it goes; then shows what was received before the stop, unless ``hurry`` is set
+        meanwhile. Returns how many received messages were not shown (``hurry``), after telling ``say``."""
         tick_s = 0.02 if self.max_rate <= 0 else min(0.02, 0.5 / self.max_rate)
         while not stop.is_set():
             item = stream.get(timeout=tick_s)
@@ -374,11 +376,26 @@ class View:
                 self._take_buffered(stream, tick_s)
             self.dropped = stream.dropped
             self.tick()
-        # Stopping: what was already received is still shown, for at most two seconds (a view stopped just
-        # after a burst, on a busy machine, otherwise lost the tail it had not yet handled).
-        self._take_buffered(stream, 2.0)
+        # Stopping: what was already received is still shown (a view stopped just after a burst, on a busy machine,
+        # is behind: its last summary would otherwise not be the service's last estimates). Only what was buffered
+        # at the stop, so that a live stream cannot keep it going; a second stop (``hurry``) gives up on the rest.
+        left = len(stream)
+        started, told = time.monotonic(), False
+        while left > 0 and not (hurry is not None and hurry.is_set()):
+            item = stream.get_nowait()
+            if item is None:
+                break
+            self.handle(*item)
+            left -= 1
+            if not told and say is not None and time.monotonic() - started > 1.0:
+                say(f"showing the {left} messages still received before the stop (stop again to skip them)")
+                told = True
         self.dropped = stream.dropped
-        self.tick()
+        self.tick(force=True)
+        unshown = max(left, 0) if hurry is not None and hurry.is_set() else 0
+        if unshown and say is not None:
+            say(f"{unshown} messages received before the stop were not shown (stopped twice)")
+        return unshown
 
     def _take_buffered(self, stream: Any, seconds: float) -> None:
         """Handles what ``stream`` already holds, for at most ``seconds``."""
