@@ -107,8 +107,18 @@ impl TruthMeta {
     }
 }
 
+/// The first bytes of every HDF5 file (its format signature).
+const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
+
 /// Parses a trial file's bytes (see the module documentation).
 pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
+    if bytes.starts_with(HDF5_SIGNATURE) {
+        // (BROAD's own files, and recordings in its layout: the natural thing to pass first.)
+        return Err("it is an HDF5 file: convert it with `.venv/bin/python \
+             scripts/broad-export.py FILE --out DIR` (add --csv for a CSV trial), or score it through a \
+             running service with `attitude-replay FILE` (docs/recordings.md)"
+            .into());
+    }
     let f = |k: usize| -> Option<f64> {
         bytes
             .get(8 * k..8 * k + 8)
@@ -121,7 +131,10 @@ pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
         ));
     };
     if cols != COLUMNS as f64 {
-        return Err(format!("{cols} columns, expected {COLUMNS}"));
+        return Err(format!(
+            "not a trial file of scripts/broad-export.py: its header's column count reads {cols:e}, \
+             expected {COLUMNS} (a CSV trial must be named *.csv)"
+        ));
     }
     if !(n >= 1.0 && n.fract() == 0.0) || !(rate > 0.0 && rate.is_finite()) {
         return Err(format!("bad header: n = {n}, rate = {rate}"));
@@ -871,4 +884,50 @@ pub fn start_point(spec: &TuneSpec, config: &serde_json::Value) -> Vec<usize> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A trial file of `rows` samples at 100 Hz (every column 0 but the accelerometer's z and the
+    /// truth's w).
+    fn trial_bytes(rows: usize, cols: f64) -> Vec<u8> {
+        let mut v = vec![rows as f64, 100.0, cols];
+        for k in 0..rows {
+            let mut r = [0.0; COLUMNS];
+            r[0] = k as f64 * 0.01;
+            r[6] = 9.81;
+            r[10] = 1.0;
+            v.extend(r);
+        }
+        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+    }
+
+    #[test]
+    fn a_trial_file_is_read_and_other_files_are_named_for_what_they_are() {
+        let t = parse_trial("t", &trial_bytes(3, COLUMNS as f64)).expect("a trial file");
+        assert_eq!((t.samples.len(), t.rate_hz), (3, 100.0));
+        // An HDF5 file (BROAD's): what it is and how to convert it, not a column count read from
+        // its signature.
+        let mut h5 = HDF5_SIGNATURE.to_vec();
+        h5.extend([0u8; 64]);
+        let e = parse_trial("h", &h5).unwrap_err();
+        assert!(
+            e.starts_with("it is an HDF5 file") && e.contains("broad-export.py"),
+            "{e}"
+        );
+        // Anything else with a wrong header: said in a number one can read.
+        let e = parse_trial("x", &trial_bytes(3, 14.0)).unwrap_err();
+        assert!(e.contains("column count reads 1.4e1, expected 15"), "{e}");
+        let e = parse_trial(
+            "x",
+            b"t,gx,gy,gz,ax,ay,az,mx,my,mz,qw,qx,qy,qz,movement\n0,0",
+        )
+        .unwrap_err();
+        assert!(
+            e.starts_with("not a trial file") && !e.contains("0.0000"),
+            "{e}"
+        );
+    }
 }
