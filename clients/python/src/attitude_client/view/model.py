@@ -388,7 +388,7 @@ class View:
             self.handle(*item)
             left -= 1
             if not told and say is not None and time.monotonic() - started > 1.0:
-                say(f"showing the {left} messages still received before the stop (stop again to skip them)")
+                say(f"still showing {left} messages received before the stop (stop again to skip them)")
                 told = True
         self.dropped = stream.dropped
         self.tick(force=True)
