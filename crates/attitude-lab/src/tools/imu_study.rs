@@ -114,9 +114,9 @@ const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
 pub fn parse_trial(name: &str, bytes: &[u8]) -> Result<Trial, String> {
     if bytes.starts_with(HDF5_SIGNATURE) {
         // (BROAD's own files, and recordings in its layout: the natural thing to pass first.)
-        return Err("it is an HDF5 file: convert it with `.venv/bin/python \
-             scripts/broad-export.py FILE --out DIR` (add --csv for a CSV trial), or score it through a \
-             running service with `attitude-replay FILE` (docs/recordings.md)"
+        return Err("it is an HDF5 file: convert it with scripts/broad-export.py (`broad-export.py \
+             FILE --out DIR`, with --csv for a CSV trial), or score it through a running service with \
+             `attitude-replay FILE` (docs/recordings.md)"
             .into());
     }
     let f = |k: usize| -> Option<f64> {
