@@ -2,8 +2,8 @@
 them, through the service's vehicle pipeline (`attitude-lab imu-study`, the code a `serve` vehicle runs, with
 config/imu.json5), scored beside VQF on the very same altered samples (`attitude_client.alter`, docs/recordings.md).
 
-Each alteration keeps the truth; what changes is what the estimator sees: another rate (25, 40, 50, 100 Hz, the
-gyro's integral kept), irregular intervals (±50% at 100 Hz), held samples (30% of the samples repeat the previous
+Each alteration keeps the truth; what changes is what the estimator sees: another rate (25, 40, 50, 100 Hz and
+1 kHz, the gyro's integral kept), irregular intervals (±50% at 100 Hz), held samples (30% of the samples repeat the previous
 reading), a gyro clipped at 4 rad/s (inferred from the clipped output: no range is configured), a start in motion
 (no opening rest: alignment, bias and field learned on the move), a magnetometer in nT instead of µT, a
 magnetometer 10 and 30 times slower than the gyro whose driver repeats its last reading in between, and five
@@ -44,6 +44,7 @@ ALTERATIONS = {
     "r40": dict(rate=40.0),
     "r50": dict(rate=50.0),
     "r100": dict(rate=100.0),
+    "r1000": dict(rate=1000.0),
     "jitter": dict(rate=100.0, jitter=0.5),
     "hold": dict(hold=0.3),
     "clip4": dict(clip=4.0),
@@ -65,6 +66,7 @@ ALTERATIONS = {
 #: | r40    | 1.18 / 0.32 | 1.000 / 0.998 | 1.000 / 1.000 | 0.45 / 0.71 |
 #: | r50    | 1.09 / 0.33 | 1.000 / 0.999 | 1.000 / 1.000 | 0.44 / 0.74 |
 #: | r100   | 0.97 / 0.33 | 0.999 / 0.998 | 1.000 / 0.999 | 0.69 / 1.00 |
+#: | r1000  | 0.86 / 0.29 | 0.995 / 0.998 | 0.999 / 0.998 | 1.65 / 1.45 |
 #: | jitter | 0.16 / 0.12 | 0.964 / 0.998 | 0.986 / 0.999 | 1.64 / 0.95 |
 #: | hold   | 0.30 / 0.28 | 1.000 / 1.000 | 1.000 / 1.000 | 0.17 / 0.70 |
 #: | clip4  | 1.38 / 0.83 | 0.998 / 1.000 | 0.959 / 1.000 | 0.14 / 0.05 |
@@ -74,6 +76,12 @@ ALTERATIONS = {
 #: | mag30  | 0.60 / 0.22 | 0.998 / 0.998 | 1.000 / 1.000 | 1.31 / 1.26 |
 #: | filled | 0.90 / 0.44 | 0.998 / 1.000 | 0.989 / 1.000 | 0.54 / 0.10 |
 #: | filled50 | 0.95 / 0.49 | 1.000 / 1.000 | 1.000 / 1.000 | 0.35 / 0.07 |
+#:
+#: r1000 is a faster sensor of the same kind (`alter`'s rate above the source's: the rates on a smooth curve through
+#: the source's, white noise added to keep each channel's noise density; see `test_a_faster_rate_is_a_faster_sensor`).
+#: Resampled as before, with every reading held over its source interval, the 1 kHz stream repeated each reading
+#: three or four times to within rounding, a run the pipeline rightly takes for made-up samples (a filled hole), and
+#: the covariance was six times too wide (median tilt NEES 0.09 / 0.12): no real 1 kHz sensor's readings do that.
 #:
 #: The preset before 2026-11-30's retuning (`gyro.change_factor` 0.5 instead of 0.12, `motion_gain` 0.75, the
 #: magnetometer's σ 0.03 rad; docs/broad.md, "A second basin") was as accurate or less at the low rates and far more
@@ -110,6 +118,7 @@ BOUNDS = {
     "r40": (1.3, 0.99, 0.99, (0.35, 0.75)),
     "r50": (1.2, 0.99, 0.99, (0.35, 0.9)),
     "r100": (1.05, 0.99, 0.99, (0.55, 1.2)),
+    "r1000": (0.95, 0.99, 0.99, (1.2, 2.0)),
     "jitter": (0.25, 0.955, 0.985, (0.8, 1.8)),
     "hold": (0.4, 0.99, 0.99, (0.12, 0.9)),
     "clip4": (1.4, 0.99, 0.95, (0.03, 0.2)),
@@ -151,6 +160,36 @@ def ours(altered):
     )
     assert run.returncode == 0, run.stderr
     return {r["trial"]: r for r in json.loads(run.stdout)}
+
+
+def test_a_faster_rate_is_a_faster_sensor():
+    """`alter` above the source's rate: the rotation of every source interval kept exactly, readings that change
+    continuously (none repeated, none on a line through the two before, as a real sensor's never are) and each
+    channel's noise density the source's."""
+    from attitude_client.alter import quietest_noise, resample
+
+    trial = load_trial(DATA / f"{EXCERPTS[0]}.hdf5", None)
+    t = trial["t"]
+    # Each source interval split in two: the two halves' mean is the source's reading, to rounding.
+    times = np.sort(np.concatenate([t, 0.5 * (t[:-1] + t[1:])]))
+    smooth = resample(trial, times, smooth=True)
+    halves = 0.5 * (smooth["gyr"][1:-1:2] + smooth["gyr"][2::2])
+    assert np.abs(halves - trial["gyr"][1:]).max() <= 1e-12 * max(1.0, np.abs(trial["gyr"]).max())
+    # ... and they differ from each other where the rate changes (a held reading would repeat it).
+    changing = np.abs(np.diff(trial["gyr"], axis=0)).max(axis=1) > 1e-3
+    assert np.all(np.abs(smooth["gyr"][2::2] - smooth["gyr"][1:-1:2]).max(axis=1)[changing] > 0)
+
+    fast = alter(trial, rate=1000.0)
+    assert fast["rate_hz"] == pytest.approx(1000.0, rel=1e-3)
+    for key in ("gyr", "acc", "mag"):
+        x = fast[key]
+        assert not np.any(np.all(x[1:] == x[:-1], axis=1)), key
+        second = np.abs(np.diff(x, 2, axis=0)).max(axis=1)
+        assert np.mean(second <= 1e-9 * np.abs(x[2:]).max(axis=1)) < 1e-3, key
+    source, faster = quietest_noise(trial), quietest_noise(fast)
+    for key in ("gyr", "acc", "mag"):
+        ratio = faster[key] / source[key] / np.sqrt(1000.0 / trial["rate_hz"])
+        assert np.all((ratio > 0.8) & (ratio < 1.25)), (key, ratio)
 
 
 @pytest.mark.parametrize("alteration", sorted(ALTERATIONS))

@@ -13,7 +13,11 @@ magnetometer are averaged over the same interval (anti-aliased); the truth and `
 interval's last sample. Written as a CSV trial (docs/recordings.md) that ``attitude-lab imu-study`` and
 ``attitude-replay`` read, with the source's truth description (``align`` etc.) kept.
 
-* ``--rate HZ``: resample onto a grid at HZ (below the source's rate).
+* ``--rate HZ``: resample onto a grid at HZ. Below the source's rate, as above. Above it, a faster sensor of the
+  same kind: the rates follow a smooth curve through the source's (the integral over each source interval kept
+  exactly; `resample`'s ``smooth``) and white noise is added so that each channel's noise density stays the
+  source's (its noise measured in its quietest second, `quietest_noise`, times √(HZ / source rate − 1)), so
+  that no two readings repeat or lie on a line, as a real sensor's never do.
 * ``--jitter F``: irregular intervals: each interval is the nominal one times a uniform factor in ``[1 − F, 1 + F]``
   (F < 1), then resampled as above.
 * ``--hold P``: with probability P a sample repeats the previous sample's values at its own (new) time, as a driver
@@ -42,13 +46,19 @@ import numpy as np
 from .replay import CSV_COLUMNS, TRUTH_FILE_KEYS, load_trial
 
 
-def resample(trial: dict, times: np.ndarray) -> dict:
+def resample(trial: dict, times: np.ndarray, smooth: bool = False) -> dict:
     """The trial on new sample times ``times`` (increasing, within the source's span). Source sample k holds its
     values over ``(t_{k−1}, t_k]`` (its rate covers that interval); new sample j gets the mean of that piecewise
     constant signal over ``(τ_{j−1}, τ_j]`` for the gyro, accelerometer and magnetometer (so the gyro's integral,
     the rotation to first order, is kept exactly), the truth interpolated at ``τ_j`` (slerp between the source
     samples around it; unknown where either is) and ``movement`` of the source sample that holds ``τ_j``. The first
-    new sample takes the source's values at its time."""
+    new sample takes the source's values at its time.
+
+    With ``smooth`` (a rate above the source's) the signal is not held constant over each source interval (the
+    new samples inside one would repeat one reading, a driver polling faster than its sensor) but follows the
+    cubic Hermite curve of its integral through the source's interval edges, with the mean of the two readings
+    around an edge as the slope there: the integral over every source interval is still exactly the source's, and
+    the rate changes continuously, as a faster sensor's would."""
     t = np.asarray(trial["t"], dtype=float)
     times = np.asarray(times, dtype=float)
     dt = np.diff(t)
@@ -56,11 +66,23 @@ def resample(trial: dict, times: np.ndarray) -> dict:
     edges = np.concatenate([[t[0] - (dt[0] if len(dt) else 1.0)], t])
 
     def integral(x: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """∫ from edges[0] to tau of the piecewise constant x."""
+        """∫ from edges[0] to tau of x (held over each interval, or on the Hermite curve with ``smooth``)."""
         widths = np.diff(edges)
         cum = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x * widths[:, None], axis=0)])
         k = np.clip(np.searchsorted(edges, tau, side="right") - 1, 0, len(x) - 1)
-        return cum[k] + x[k] * (tau - edges[k])[:, None]
+        if not smooth:
+            return cum[k] + x[k] * (tau - edges[k])[:, None]
+        # The slope of the integral at each edge: the mean of the readings on both sides (the end ones at the ends).
+        slope = np.concatenate([x[:1], 0.5 * (x[:-1] + x[1:]), x[-1:]])
+        h = widths[k][:, None]
+        u = np.clip((tau - edges[k])[:, None] / h, 0.0, 1.0)
+        u2, u3 = u * u, u * u * u
+        return (
+            (2 * u3 - 3 * u2 + 1) * cum[k]
+            + (u3 - 2 * u2 + u) * h * slope[k]
+            + (-2 * u3 + 3 * u2) * cum[k + 1]
+            + (u3 - u2) * h * slope[k + 1]
+        )
 
     out = {k: v for k, v in trial.items() if k not in ("gyr", "acc", "mag", "opt_quat", "movement", "t")}
     holder = np.clip(np.searchsorted(t, times - 1e-12, side="left"), 0, len(t) - 1)
@@ -93,6 +115,18 @@ def resample(trial: dict, times: np.ndarray) -> dict:
     out["t"] = times
     out["rate_hz"] = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else trial["rate_hz"]
     return out
+
+
+def quietest_noise(trial: dict, window_s: float = 1.0) -> dict:
+    """Each channel's noise per axis (1σ, its units), measured where the trial is quietest: the window of
+    ``window_s`` whose gyro varies least (a rest, if the trial has one)."""
+    n = max(2, int(round(window_s * trial["rate_hz"])))
+    gyr = np.asarray(trial["gyr"], dtype=float)
+    if len(gyr) < n:
+        n = len(gyr)
+    starts = range(0, len(gyr) - n + 1, max(1, n // 2))
+    best = min(starts, key=lambda k: float(np.std(gyr[k : k + n], axis=0).sum()))
+    return {key: np.std(np.asarray(trial[key], dtype=float)[best : best + n], axis=0) for key in ("gyr", "acc", "mag")}
 
 
 def alter(
@@ -131,7 +165,18 @@ def alter(
         dt = np.full(n, 1.0 / r) * (1.0 + jitter * rng.uniform(-1.0, 1.0, n))
         times = t0 + np.concatenate([[0.0], np.cumsum(dt)])
         times = times[times <= t1 + 1e-9]
-        out = resample(out, times)
+        source_rate = out["rate_hz"]
+        faster = r > source_rate * (1.0 + 1e-9)
+        noise = quietest_noise(out) if faster else None
+        out = resample(out, times, smooth=faster)
+        if faster:
+            # A faster sensor with the source's noise density: its readings' white noise grows as √rate. The
+            # smooth curve keeps the source's (now spread over several samples); the rest is added, per
+            # sample and independent (its own generator: the other alterations' draws stay as they were).
+            extra = np.sqrt(r / source_rate - 1.0)
+            draw = np.random.default_rng([seed, 1])
+            for key in ("gyr", "acc", "mag"):
+                out[key] = out[key] + draw.normal(size=out[key].shape) * (noise[key] * extra)
     n = len(out["t"])
     for key in ("gyr", "acc", "mag"):
         out[key] = np.array(out[key], dtype=float, copy=True)
