@@ -3,7 +3,7 @@
 //! format fails here instead of silently orphaning the checkpoints of a running service: bump
 //! `persist::VERSION`, keep the old files (a checkpoint of another version is refused with a clear
 //! message, and the service counts it as skipped: `checkpoints_of_another_version_are_refused`, which
-//! reads the files of formats 3 to 7 kept here), and add the new version's files with
+//! reads the files of formats 3 to 8 kept here), and add the new version's files with
 //!
 //!     ATTITUDE_WRITE_GOLDEN=1 cargo test --release --test it checkpoint_golden:: -- --test-threads=1
 //!
@@ -25,12 +25,12 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-const VERSION: u32 = 8;
+const VERSION: u32 = 9;
 /// Formats before this one, kept to show they are refused: 3 (bincode of the core's own types), 4
 /// (no SGHQF, no sparse-grid level), 5 (no gyro channel, datasheet or measured noise), 6 (no
-/// driver's repeats or filled holes in the IMU pipeline) and 7 (no datasheet output stage), each with
-/// the two vehicles they all had.
-const OLD_VERSIONS: [u32; 5] = [3, 4, 5, 6, 7];
+/// driver's repeats or filled holes in the IMU pipeline), 7 (no datasheet output stage) and 8 (no
+/// low-pass of the rest detector's deviations), each with the two vehicles they all had.
+const OLD_VERSIONS: [u32; 6] = [3, 4, 5, 6, 7, 8];
 const OLD_NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
 
 fn dir() -> PathBuf {

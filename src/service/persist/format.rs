@@ -477,7 +477,14 @@ saved!(Lowpass3V5 for Lowpass3 {
     x: [Vector3<f64>; 2],
     y: Option<[Vector3<f64>; 2]>,
 });
-saved!(RestV5 for RestDetector { gyr_lp: Lowpass3, acc_lp: Lowpass3, still_s: f64, at_rest: bool });
+saved!(RestV9 for RestDetector {
+    gyr_lp: Lowpass3,
+    acc_lp: Lowpass3,
+    gyr_dev: Vector3<f64>,
+    acc_dev: Vector3<f64>,
+    still_s: f64,
+    at_rest: bool,
+});
 saved!(GravityV5 for GravityChannel {
     lp: Lowpass3,
     lp2: Lowpass3,

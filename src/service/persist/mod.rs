@@ -34,7 +34,9 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// and its frame; 6 cannot say them: refused).
 /// 8: a datasheet states its output stage (`crate::ahrs::Output`: interval means, the gyro's own
 /// increments, or values at the time stamp; 7 cannot say it: refused).
-pub const VERSION: u32 = 8;
+/// 9: the rest detector holds its deviations' own low-pass (`crate::ahrs::rest`; 8 cannot say it:
+/// refused).
+pub const VERSION: u32 = 9;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";
 

@@ -243,8 +243,11 @@ impl Ahrs {
             sg = sg.max(self.sheet.gyro_arw_rad_sqrt_s() / dt_s.sqrt());
             sa = sa.max(self.sheet.acc_noise_density_m_s2_sqrt_hz() / dt_s.sqrt());
         }
-        r.gyr_limit_rad_s = r.gyr_limit_rad_s.max(5.0 * sg);
-        r.acc_limit_m_s2 = r.acc_limit_m_s2.max(5.0 * sa);
+        // (The limits are on the deviations after their own low-pass, which keeps this share of a
+        // sample's noise.)
+        let share = rest::deviation_noise_share(dt_s).sqrt();
+        r.gyr_limit_rad_s = r.gyr_limit_rad_s.max(5.0 * sg * share);
+        r.acc_limit_m_s2 = r.acc_limit_m_s2.max(5.0 * sa * share);
         r
     }
 
