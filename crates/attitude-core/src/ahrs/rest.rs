@@ -15,7 +15,8 @@ use nalgebra::Vector3;
 /// `1 / (4 τ)` = 125 Hz at most, whatever the rate. Compared sample by sample, a faster sensor's
 /// deviations carry more of its noise (white noise of one density has a variance per sample that
 /// grows with the rate): BROAD's accelerometer resampled to 1 kHz with its own noise density broke the
-/// 0.5 m/s² limit about once a second at rest, and its 40 s of opening rest were found half the time.
+/// 0.5 m/s² limit about once a second at rest, and its 40 s of opening rest were found a third of the
+/// time.
 /// Below 250 Hz the low-pass changes a sample's deviation by less than 14%.
 pub const DEVIATION_S: f64 = 0.002;
 
