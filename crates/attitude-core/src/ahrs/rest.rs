@@ -72,7 +72,9 @@ impl RestDetector {
         let k = deviation_gain(dt_s);
         self.gyr_dev += (gyr - g - self.gyr_dev) * k;
         self.acc_dev += (acc - a - self.acc_dev) * k;
-        if !(self.gyr_dev.iter().all(|x| x.is_finite()) && self.acc_dev.iter().all(|x| x.is_finite())) {
+        if !(self.gyr_dev.iter().all(|x| x.is_finite())
+            && self.acc_dev.iter().all(|x| x.is_finite()))
+        {
             self.gyr_dev = Vector3::zeros();
             self.acc_dev = Vector3::zeros();
         }
@@ -162,7 +164,8 @@ mod tests {
             let n = (20.0 * rate) as usize;
             for k in 0..n {
                 let g = Vector3::from_fn(|_, _| gyr.sample(&mut rng));
-                let a = Vector3::new(0.0, 0.0, 9.81) + Vector3::from_fn(|_, _| acc.sample(&mut rng));
+                let a =
+                    Vector3::new(0.0, 0.0, 9.81) + Vector3::from_fn(|_, _| acc.sample(&mut rng));
                 let t = k as f64 * dt;
                 if d.update(&c, &g, &a, dt) {
                     rest += 1;
