@@ -179,7 +179,21 @@ def run(tmp_path_factory):
             capture_output=True, text=True, timeout=120,
         )
         assert sim.returncode == 0, sim.stderr
-        wait_until(lambda: all(client.get_state(v)["t"] == DURATION_S for v in VEHICLES), 30, "the last estimates")
+        last = {}
+
+        def all_done():
+            last.update({v: client.get_state(v)["t"] for v in VEHICLES})
+            return all(t == DURATION_S for t in last.values())
+
+        # (Once a fixture timed out here with nothing to show why: the vehicles' times, the simulation's and the
+        # service's logs go with the failure.)
+        deadline = time.monotonic() + 30
+        while not all_done():
+            if time.monotonic() > deadline:
+                pytest.fail(f"timed out after 30 s waiting for the last estimates: t per vehicle {last} (of "
+                            f"{DURATION_S}); simulate said {sim.stdout[-1500:]!r} {sim.stderr[-1500:]!r}; "
+                            f"the service's log ends {svc.log()[-3000:]!r}")
+            time.sleep(0.01)
         final = {v: client.get_state(v) for v in VEHICLES}
 
         # Two bad inputs for sc4: a malformed gyro sample and one older than what it processed.
@@ -480,3 +494,36 @@ def test_a_taken_port_is_refused_not_shared(tmp_path):
             s.close()
     assert done.returncode == 1, done.stderr
     assert f"port {grpc} on 127.0.0.1 is taken" in done.stderr, done.stderr
+
+
+def test_a_view_killed_outright_takes_its_server_along(tmp_path):
+    """A view that gets SIGKILL cannot stop the `rerun --serve-web` it started: the server dies with it (Linux's
+    parent-death signal), so that nothing keeps listening on the view's ports."""
+    import socket
+
+    def listening(port: int) -> bool:
+        with socket.socket() as s:
+            s.settimeout(0.5)
+            return s.connect_ex(("127.0.0.1", port)) == 0
+
+    web, grpc = free_port(), free_port()
+    script = Path(sys.executable).parent / "attitude-view"
+    log = tmp_path / "view.log"
+    with open(log, "wb") as out:
+        view = subprocess.Popen(
+            [str(script), "--rerun", "--connect", f"tcp/127.0.0.1:{free_port()}", "--wait", "0",
+             "--grpc-port", str(grpc), "--web-port", str(web)],
+            stdout=out, stderr=subprocess.STDOUT, cwd=tmp_path,
+        )
+    try:
+        wait_until(lambda: "web viewer on" in log.read_text(errors="replace") or view.poll() is not None, 30,
+                   "the view's servers")
+        assert view.poll() is None, log.read_text()
+        assert listening(grpc) and listening(web)
+        view.kill()
+        view.wait(timeout=10)
+        wait_until(lambda: not listening(grpc) and not listening(web), 10, "the server to go with the view")
+    finally:
+        if view.poll() is None:
+            view.kill()
+            view.wait()

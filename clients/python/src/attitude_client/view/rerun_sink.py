@@ -29,6 +29,7 @@ and for a vehicle's messages ``t`` (the estimate's time, s, on the vehicle's clo
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -342,6 +343,15 @@ def _listening(host: str, port: int) -> bool:
         return False
 
 
+def _die_with_parent():
+    """What the child runs before exec on Linux: SIGTERM when the process that started it dies (PR_SET_PDEATHSIG,
+    1). The function is looked up here, in the parent: the forked child only calls it (no loading after a fork)."""
+    import ctypes
+
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    return lambda: prctl(1, signal.SIGTERM)
+
+
 class RerunServer:
     """``rerun --serve-web`` as a child process: the gRPC server the view logs to and viewers read (it keeps up to
     ``memory_limit`` of the log for viewers that connect later), and the web viewer over HTTP, both on ``host``."""
@@ -360,9 +370,10 @@ class RerunServer:
         env = dict(os.environ)
         env.setdefault("RUST_LOG", "warn")  # its own banner would repeat the view's
         # Its own session: a Ctrl-C in the terminal reaches the view only, which sends its last messages to the
-        # server and then stops it (stop()); in the view's process group the server would die first. (A view killed
-        # outright leaves it running: it is the child `rerun --serve-web` on the view's ports.)
-        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, env=env, start_new_session=True)
+        # server and then stops it (stop()); in the view's process group the server would die first. A view killed
+        # outright takes it along on Linux (the parent-death signal), rather than leaving a server on its ports.
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, env=env, start_new_session=True,
+                                     preexec_fn=_die_with_parent() if sys.platform == "linux" else None)
         deadline = time.monotonic() + timeout
         while not (_listening(local, grpc_port) and _listening(local, web_port)):
             if self.proc.poll() is not None:
