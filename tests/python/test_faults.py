@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 
+import json5
 import pytest
 
 from conftest import BIN, ROOT
@@ -25,15 +26,22 @@ LOSSY = ["loss-1%", "burst-1s", "reorder-beyond"]
 
 
 @pytest.fixture(scope="module")
-def study():
+def study(tmp_path_factory):
     if not TRIAL.exists():
         pytest.fail(f"{TRIAL} is missing (committed with the repository)")
     if not BIN.exists():
         pytest.fail(f"{BIN} does not exist: build it (cargo build --release) or run scripts/python-tests.sh")
     env = dict(os.environ, ATTITUDE_SERVICE_BIN=str(BIN))
+    # The preset with BROAD's magnetometer taken as calibrated in place (it is): on this excerpt (a translation) no
+    # rotation ever confirms the field, and the preset's allowance for an unknown offset would keep the published
+    # heading σ near 77° throughout, which would hide what these cases do to the heading (docs/faults.md).
+    config = json5.loads((ROOT / "config" / "imu.json5").read_text())
+    config["service"]["imu"]["mag"]["hard_iron"]["unconfirmed_offset"] = 0.0
+    config_path = tmp_path_factory.mktemp("faults") / "imu-calibrated.json5"
+    config_path.write_text(json.dumps(config, indent=2))
     proc = subprocess.run(
         [sys.executable, "-m", "attitude_client.faults", str(TRIAL), "--excerpt-seconds", "35", "--cases",
-         ",".join(CASES), "--json"],
+         ",".join(CASES), "--config", str(config_path), "--json"],
         capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, f"exit {proc.returncode}:\n{proc.stderr[-4000:]}"
     [result] = json.loads(proc.stdout)
@@ -111,10 +119,12 @@ def test_lost_batches_and_bursts_keep_their_measured_accuracy(study):
     assert study["cases"]["burst-1s"]["ours"]["total_rmse_deg"] < 29.0
 
 
-@pytest.mark.xfail(strict=True, reason="known defect (docs/faults.md): after gaps in fast motion (5-7 rad/s) the "
-                   "heading's covariance is too small for the error left (loss-1%: tilt in99 0.92, 3-axis 0.87; "
-                   "burst-1s 0.99 and 0.99 since the gap's variance was made coherent; 0.37 on 3 axes before)")
 def test_lost_batches_and_bursts_stay_honest(study):
+    """After lost batches and a 1 s burst in fast motion the covariance covers the error left (with the magnetometer
+    taken as calibrated: the filter's own heading covariance, no allowance for an unconfirmed field). Measured
+    2026-12-01: loss-1% tilt in99 0.913, 3-axis 0.946; burst-1s 0.996 and 1.000. (A strict xfail until the score
+    removed the constant heading offset as the published σ make it most likely, not as a plain mean that the
+    heading after the gaps pulled: 3-axis 0.87 then; docs/faults.md.)"""
     for case in ("loss-1%", "burst-1s"):
         o = study["cases"][case]["ours"]
         assert o["att_in99"] >= 0.9 and o["tilt_in99"] >= 0.9, (case, o)

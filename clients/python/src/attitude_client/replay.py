@@ -42,8 +42,9 @@ What it does (it never starts the service):
      fraction of scored samples whose horizontal NEES ``θ_hᵀ (P_ref,h + (0.2°)² I)⁻¹ θ_h`` is within χ²₂'s 99%
      quantile 9.21 (honest: 0.99; the 0.2° is the optical truth's own tilt error) and ``tilt_nees_median`` its
      median (honest: 1.39); ``heading_in99`` the fraction with ``|θ_z − offset| ≤ 2.576·√P_ref,zz``, where
-     ``heading_offset_deg`` (reported) is the mean of ``θ_z`` over the scored samples: the angle between the
-     optical frame's north and the magnetic north, a property of the recording.
+     ``heading_offset_deg`` (reported) is the mean of ``θ_z`` over the scored samples weighted by ``1/P_ref,zz``:
+     the angle between the optical frame's north and the magnetic north, a property of the recording, as the
+     estimate's own σ make it most likely.
 
 Output: a table, or with ``--json`` one object mapping each estimator (``mekf``, ``qpf:average``, ``vqf``,
 ``madgwick``) to ``{"total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg"}``, our filters with
@@ -320,7 +321,10 @@ def _honesty(
     nees = np.where((a > 0) & (d1 > 0), y0 * y0 + y1 * y1, np.inf)
     psi = theta[:, 2]
     psi_sigma = np.sqrt(np.maximum(pe[:, 2, 2], 0.0))
-    offset = float(np.mean(psi))
+    # The constant offset the published σ make most likely: the inverse-variance weighted mean (a phase the
+    # estimator declares uncertain, a field reference not yet confirmed, does not move it).
+    weights = 1.0 / np.maximum(psi_sigma * psi_sigma, 1e-12)
+    offset = float(np.sum(weights * psi) / np.sum(weights))
     th3 = theta.copy()
     th3[:, 2] -= offset
     att = np.full(m, np.inf)

@@ -251,7 +251,7 @@ pub struct Scores {
     pub att_in99: f64,
     #[serde(default)]
     pub att_nees_median: f64,
-    /// The removed constant heading offset, deg.
+    /// The removed constant heading offset (the heading errors' inverse-variance weighted mean), deg.
     pub heading_offset_deg: f64,
     /// With [`Align::Both`], the angles of the alignment's rotations `L` and `R`, deg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -359,8 +359,19 @@ pub fn score_with(
             .to_degrees()
     };
     let m = psi.len();
+    // The constant heading offset (the truth's north against the estimator's, which nothing in the
+    // data fixes) is the one the published σ make most likely: the mean of the heading errors
+    // weighted by their inverse variances. An unweighted mean would let a phase that the estimator
+    // itself declares uncertain (a reference not yet confirmed, σ of tens of degrees) move the
+    // offset, and count every confident sample after it as wrong.
     let offset = if m > 0 {
-        psi.iter().sum::<f64>() / m as f64
+        let (mut sw, mut swx) = (0.0, 0.0);
+        for (p, s) in psi.iter().zip(&psi_sigma) {
+            let w = 1.0 / (s * s).max(1e-12);
+            sw += w;
+            swx += w * p;
+        }
+        swx / sw
     } else {
         f64::NAN
     };
@@ -568,5 +579,44 @@ mod tests {
         let h = score(&half, &t, &mv);
         assert!(h.tilt_in99 < 0.85 && h.tilt_nees_median > 4.0, "{h:?}");
         assert!(h.heading_in99 < 0.85, "{h:?}");
+    }
+
+    /// The heading offset removed is the one the published σ make most likely: a first quarter 100°
+    /// off that says σ 60° (a field not yet confirmed) hardly moves it, and the three confident
+    /// quarters after it, 2° off with σ 2°, are inside; the same quarter claiming σ 2° moves it by
+    /// a quarter of 98° and is caught (and so are the rest).
+    #[test]
+    fn the_heading_offset_is_weighted_by_the_published_variances() {
+        let truth = Quaternion::from_euler_321(0.0, 0.2, -0.3);
+        let run = |early_sigma_deg: f64| {
+            let n = 400;
+            let mut est = Vec::with_capacity(n);
+            for k in 0..n {
+                let (err, sigma) = if k < n / 4 {
+                    (100.0 * DEG, early_sigma_deg * DEG)
+                } else {
+                    (2.0 * DEG, 2.0 * DEG)
+                };
+                // A rotation about the reference vertical (the heading), its σ about the body's
+                // image of that vertical; tilt σ 1°.
+                let q = truth.compose(&Quaternion::from_rotation_vector(&(Vector3::z() * err)));
+                let up = q.attitude_matrix() * Vector3::z();
+                let p = Matrix3::identity() * DEG * DEG + up * up.transpose() * sigma * sigma;
+                est.push(Some(Sample { q, p_att: p }));
+            }
+            score(&est, &vec![Some(truth); n], &vec![true; n])
+        };
+        let honest = run(60.0);
+        assert!(honest.heading_offset_deg.abs() < 3.0, "{honest:?}");
+        assert!(
+            honest.att_in99 > 0.99 && honest.heading_in99 > 0.99,
+            "{honest:?}"
+        );
+        let confident = run(2.0);
+        assert!(
+            (confident.heading_offset_deg - 26.5).abs() < 0.5,
+            "{confident:?}"
+        );
+        assert!(confident.att_in99 < 0.01, "{confident:?}");
     }
 }
