@@ -156,8 +156,9 @@ pub struct ImuDiagnosticsMsg {
     pub mag_dip_deg: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mag_offset: Option<[f64; 3]>,
-    /// `provisional` (the reading at the start: a magnet on the body would be in it) or `confirmed`
-    /// (a hard-iron fit over rotation about every axis found it), once there is a reference.
+    /// `provisional` (the reading at the start: a magnet on the body would be in it, and the published
+    /// covariance allows for the north it may turn) or `confirmed` (a hard-iron fit over rotation
+    /// about every axis found it), once there is a reference.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mag_reference: Option<String>,
     /// Gyro and accelerometer samples at or beyond 98% of the range (saturated).

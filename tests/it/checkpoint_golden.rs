@@ -25,12 +25,13 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-const VERSION: u32 = 9;
+const VERSION: u32 = 10;
 /// Formats before this one, kept to show they are refused: 3 (bincode of the core's own types), 4
 /// (no SGHQF, no sparse-grid level), 5 (no gyro channel, datasheet or measured noise), 6 (no
-/// driver's repeats or filled holes in the IMU pipeline), 7 (no datasheet output stage) and 8 (no
-/// low-pass of the rest detector's deviations), each with the two vehicles they all had.
-const OLD_VERSIONS: [u32; 6] = [3, 4, 5, 6, 7, 8];
+/// driver's repeats or filled holes in the IMU pipeline), 7 (no datasheet output stage), 8 (no
+/// low-pass of the rest detector's deviations) and 9 (no north variance of an unconfirmed field),
+/// each with the two vehicles they all had.
+const OLD_VERSIONS: [u32; 7] = [3, 4, 5, 6, 7, 8, 9];
 const OLD_NAMES: [&str; 2] = ["qpf-imu", "mekf-vectors"];
 
 fn dir() -> PathBuf {

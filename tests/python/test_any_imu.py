@@ -291,15 +291,16 @@ def test_an_altered_recording_through_the_service(altered, ours, tmp_path):
         assert result[key] == pytest.approx(study[key], rel=1e-9, abs=1e-12), (key, result, study)
 
 
-@pytest.mark.xfail(strict=True, reason="known gap (docs/broad.md, 'A hard-iron offset present from the first sample'): "
-                   "north is taken from the offset field and the heading's covariance does not allow for it until "
-                   "rotation confirms the field (excerpt 34 with (30, -20, 15) µT: 3-axis inside 99% 0.34, heading "
-                   "0.17; 30.9° where VQF has 73.3°)")
 def test_a_hard_iron_offset_from_the_first_sample_is_allowed_for(tmp_path):
-    """A magnet fixed to the body from the start (excerpt 34, an offset of (30, −20, 15) µT against a field of about
-    48 µT): the heading may be wrong until rotation reveals the offset, but the covariance has to say so."""
+    """A magnet fixed to the body from the start (excerpt 34; offsets of (30, −20, 15) and (10, −5, 8) µT against a
+    field of about 48 µT): north is taken from the offset field, and the heading is wrong until rotation reveals the
+    offset (103° and 31° on this excerpt, for 5 s of its motion), but the covariance says so: while the reference is
+    unconfirmed the published heading allows for an offset of half the field's norm (docs/broad.md, 'A hard-iron
+    offset present from the first sample'). Without that allowance: 3-axis inside 99% 0.015 and 0.093, heading
+    0.010 and 0.072; measured with it: 0.995 and 1.000, heading 0.911 and 1.000."""
     trial = load_trial(DATA / f"{EXCERPTS[1]}.hdf5", None)
-    write_csv(alter(trial, mag_offset=(30.0, -20.0, 15.0)), tmp_path / "34_hardiron.csv")
+    for name, offset in (("large", (30.0, -20.0, 15.0)), ("small", (10.0, -5.0, 8.0))):
+        write_csv(alter(trial, mag_offset=offset), tmp_path / f"34_hardiron_{name}.csv")
     run = subprocess.run(
         [str(LAB), "imu-study", str(tmp_path), "--config", str(ROOT / "config" / "imu.json5"), "--json"],
         capture_output=True,
@@ -307,7 +308,10 @@ def test_a_hard_iron_offset_from_the_first_sample_is_allowed_for(tmp_path):
         timeout=300,
     )
     assert run.returncode == 0, run.stderr
-    r = json.loads(run.stdout)[0]
-    assert not r["rejected"], r
-    assert r["tilt_in99"] >= 0.99, r
-    assert r["att_in99"] >= 0.9, r
+    rows = json.loads(run.stdout)
+    assert len(rows) == 2, rows
+    for r in rows:
+        assert not r["rejected"], r
+        assert r["tilt_in99"] >= 0.99, r
+        assert r["att_in99"] >= 0.95, r
+        assert r["heading_in99"] >= 0.85, r

@@ -671,7 +671,7 @@ saved!(MagHoldV7 for MagHold {
     fresh_frame: Option<Matrix3<f64>>,
 });
 
-saved!(AhrsV5 for AhrsState {
+saved!(AhrsV10 for AhrsState {
     phase: Phase,
     t_s: Option<f64>,
     q_gyro: Quaternion,
@@ -683,6 +683,7 @@ saved!(AhrsV5 for AhrsState {
     field: Option<FieldChannel>,
     since_bias_s: f64,
     published: Matrix3<f64>,
+    north_var: f64,
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
     counts: AhrsCounts,

@@ -118,8 +118,10 @@ pub struct Ahrs {
     field: Option<FieldChannel>,
     since_bias_s: f64,
     /// What a published estimate adds to the filter's attitude covariance now (see
-    /// [`Ahrs::published_attitude_covariance`]).
+    /// [`Ahrs::published_attitude_covariance`]): the time stamp's (body frame, rad²) and north's
+    /// about the vertical (rad²).
     published: Matrix3<f64>,
+    north_var: f64,
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
     counts: AhrsCounts,
@@ -165,6 +167,7 @@ impl Ahrs {
             field: None,
             since_bias_s: 0.0,
             published: Matrix3::zeros(),
+            north_var: 0.0,
             tilt_inconsistent_s: 0.0,
             heading_inconsistent_s: 0.0,
             counts: AhrsCounts::default(),
@@ -175,10 +178,17 @@ impl Ahrs {
         }
     }
 
-    /// What a published estimate adds to the filter's attitude covariance (body frame, rad²): the
-    /// rotation over the time-stamp uncertainty, `σ_t² ω ωᵀ`.
-    pub fn published_attitude_covariance(&self) -> Matrix3<f64> {
-        self.published
+    /// What the estimate `q` adds to the filter's attitude covariance when it is published (body
+    /// frame, rad²): the rotation over the time-stamp uncertainty, `σ_t² ω ωᵀ`, and, until rotation
+    /// confirms the field, north's ([`FieldChannel::north_variance`]) about the estimate's own
+    /// vertical (exactly its vertical: a vertical off by δ would put δ² of it into the tilt).
+    pub fn published_attitude_covariance(&self, q: &Quaternion) -> Matrix3<f64> {
+        if self.north_var > 0.0 {
+            let up = q.attitude_matrix() * UP;
+            self.published + up * up.transpose() * self.north_var
+        } else {
+            self.published
+        }
     }
 
     /// The time of the last sample taken.
@@ -741,6 +751,13 @@ impl Ahrs {
                 }
             }
         }
+        // North itself, while rotation has not confirmed the field: the filter keeps the heading the
+        // readings give (consistent with each other at one attitude), but the reference they give
+        // may be turned by an offset they cannot reveal yet; the published estimate says so.
+        self.north_var = match (self.field.as_ref(), c.mag.enabled) {
+            (Some(f), true) => f.north_variance(&c.mag),
+            _ => 0.0,
+        };
         Ok(())
     }
 }

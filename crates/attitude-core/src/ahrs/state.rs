@@ -39,6 +39,7 @@ pub struct AhrsState {
     pub field: Option<FieldChannel>,
     pub since_bias_s: f64,
     pub published: Matrix3<f64>,
+    pub north_var: f64,
     pub tilt_inconsistent_s: f64,
     pub heading_inconsistent_s: f64,
     pub counts: AhrsCounts,
@@ -61,6 +62,7 @@ impl Ahrs {
             field: self.field.clone(),
             since_bias_s: self.since_bias_s,
             published: self.published,
+            north_var: self.north_var,
             tilt_inconsistent_s: self.tilt_inconsistent_s,
             heading_inconsistent_s: self.heading_inconsistent_s,
             counts: self.counts.clone(),
@@ -77,7 +79,10 @@ impl Ahrs {
         if !q.iter().all(|v| v.is_finite()) || (n2 - 1.0).abs() > 1e-6 {
             return Err("the IMU pipeline's gyro frame is not a unit quaternion".into());
         }
-        if !s.t_s.unwrap_or(0.0).is_finite() || !s.published.iter().all(|v| v.is_finite()) {
+        if !s.t_s.unwrap_or(0.0).is_finite()
+            || !s.published.iter().all(|v| v.is_finite())
+            || !(s.north_var >= 0.0 && s.north_var.is_finite())
+        {
             return Err("the IMU pipeline's time or covariance is not finite".into());
         }
         Ok(Ahrs {
@@ -92,6 +97,7 @@ impl Ahrs {
             field: s.field,
             since_bias_s: s.since_bias_s,
             published: s.published,
+            north_var: s.north_var,
             tilt_inconsistent_s: s.tilt_inconsistent_s,
             heading_inconsistent_s: s.heading_inconsistent_s,
             last_gap: None,

@@ -393,9 +393,10 @@ impl VehicleState {
     fn published(&self, e: &Estimate) -> Published {
         let mut estimate = e.clone();
         if let Some(a) = &self.ahrs {
-            // An IMU vehicle's estimate carries the time-stamp uncertainty too (crate::ahrs).
+            // An IMU vehicle's estimate carries the time-stamp's uncertainty too, and north's while
+            // the field is unconfirmed (crate::ahrs).
             let mut block = estimate.covariance.fixed_view_mut::<3, 3>(0, 0);
-            block += a.published_attitude_covariance();
+            block += a.published_attitude_covariance(&e.q);
         }
         Published {
             vehicle: Arc::clone(&self.id),

@@ -436,6 +436,22 @@ impl FieldChannel {
         Some(old)
     }
 
+    /// The variance (rad²) of the reference's north about the vertical that the readings cannot yet
+    /// reveal: until rotation confirms the reference, the reading it was taken from may hold a
+    /// body-fixed offset of `hard_iron.unconfirmed_offset` × the norm (1σ per axis), whose part
+    /// across the horizontal field turns north by about that over `cos(dip)` (capped at a heading
+    /// uniform on the circle, `π/√3`). 0 once confirmed: the accepted offset's own uncertainty is in
+    /// every observation's σ.
+    pub fn north_variance(&self, c: &MagConfig) -> f64 {
+        if self.confirmed {
+            return 0.0;
+        }
+        let horizontal = self.dip.cos().abs().max(1e-3);
+        let sigma =
+            (c.hard_iron.unconfirmed_offset / horizontal).min(std::f64::consts::PI / 3f64.sqrt());
+        sigma * sigma
+    }
+
     /// The heading observation when one is due (every `interval_s`), from the reading `mag` taken at
     /// the turn rate `rate_rad_s`.
     pub fn observation(
@@ -610,7 +626,8 @@ mod tests {
     /// A magnet on the body from the start: the reference taken from the first reading holds its
     /// offset. Once the body has turned enough, the fit replaces that reference with the field it
     /// finds (its norm and dip), accepts the offset, confirms the reference, and reports how much the
-    /// correction turns the heading of the reading.
+    /// correction turns the heading of the reading. Until then north's variance allows for that turn
+    /// (within its 99% interval); once confirmed it is 0.
     #[test]
     fn a_magnet_from_the_start_replaces_the_provisional_reference() {
         let c = MagConfig::default();
@@ -620,6 +637,7 @@ mod tests {
         let dip = dip_rad(&first.normalize(), &up);
         let mut ch = FieldChannel::new(first.norm(), dip, &Vector3::y());
         assert!(!ch.confirmed);
+        let north_sigma = ch.north_variance(&c).sqrt();
         let dt = 0.01;
         let mut q = Quaternion::IDENTITY;
         let mut jump = None;
@@ -640,5 +658,24 @@ mod tests {
         assert!((ch.dip - 65f64.to_radians()).abs() < 0.01, "{}", ch.dip);
         let j = jump.expect("the acceptance reports the heading change");
         assert!(j > 0.05, "{j}");
+        assert!(j <= 2.576 * north_sigma, "{j} against 1σ {north_sigma}");
+        assert_eq!(ch.north_variance(&c), 0.0);
+    }
+
+    /// North's variance before rotation confirms the field: the offset's 1σ (a fraction of the norm)
+    /// over the horizontal part of the field, capped at a heading uniform on the circle; none for a
+    /// magnetometer calibrated in place (`unconfirmed_offset` 0).
+    #[test]
+    fn north_variance_of_an_unconfirmed_field() {
+        let mut c = MagConfig::default();
+        c.hard_iron.unconfirmed_offset = 0.2;
+        let ch = FieldChannel::new(45.0, 60f64.to_radians(), &Vector3::y());
+        // 0.2 / cos 60° = 0.4 rad.
+        assert!((ch.north_variance(&c) - 0.16).abs() < 1e-12);
+        let steep = FieldChannel::new(45.0, 85f64.to_radians(), &Vector3::y());
+        let uniform = std::f64::consts::PI / 3f64.sqrt();
+        assert!((steep.north_variance(&c) - uniform * uniform).abs() < 1e-12);
+        c.hard_iron.unconfirmed_offset = 0.0;
+        assert_eq!(ch.north_variance(&c), 0.0);
     }
 }

@@ -72,6 +72,13 @@ pub struct HardIronConfig {
     /// When the field turns disturbed, the fit keeps this weight of what it saw before (it relearns
     /// from the readings after the change).
     pub restart_weight: f64,
+    /// The 1σ per axis, as a fraction of the field's norm, of a body-fixed offset that the readings
+    /// cannot reveal before rotation confirms the reference (`FieldChannel::confirmed`): the
+    /// reference's north, taken from one reading, may be turned by it, and the published heading
+    /// allows for that until the fit has confirmed or replaced the reference. An unknown consumer
+    /// magnetometer's hard iron is often as large as the Earth's field; 0 for a magnetometer
+    /// calibrated in place.
+    pub unconfirmed_offset: f64,
 }
 
 impl Default for MagConfig {
@@ -115,6 +122,7 @@ impl Default for HardIronConfig {
             min_excitation: 0.1,
             replace_improvement: 4.0,
             restart_weight: 0.05,
+            unconfirmed_offset: 0.5,
         }
     }
 }
@@ -166,6 +174,7 @@ impl HardIronConfig {
         fraction(self.min_excitation, "mag.hard_iron.min_excitation")?;
         non_negative(self.min_change, "mag.hard_iron.min_change")?;
         fraction(self.restart_weight, "mag.hard_iron.restart_weight")?;
+        non_negative(self.unconfirmed_offset, "mag.hard_iron.unconfirmed_offset")?;
         at_least_one(self.min_improvement, "mag.hard_iron.min_improvement")
     }
 }
