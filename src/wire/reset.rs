@@ -127,6 +127,9 @@ pub struct SensorSheetMsg {
     #[serde(default, deserialize_with = "some_number")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mag_noise: Option<f64>,
+    #[serde(default, deserialize_with = "some_number")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mag_offset_sigma: Option<f64>,
     /// What a sample's outputs stand for over its interval: `mean`, `increments` or `instant`
     /// (crate::ahrs::Output).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -162,6 +165,11 @@ impl TryFrom<&SensorSheetMsg> for SensorSheet {
             ),
             (m.acc_range_g, "acc_range_g", &mut sheet.acc_range_g),
             (m.mag_noise, "mag_noise", &mut sheet.mag_noise),
+            (
+                m.mag_offset_sigma,
+                "mag_offset_sigma",
+                &mut sheet.mag_offset_sigma,
+            ),
         ] {
             let Some(v) = v else { continue };
             if !v.is_finite() {

@@ -515,6 +515,7 @@ fn full_messages() -> Vec<(&'static str, Value)> {
             acc_noise_density_ug_sqrt_hz: Some(150.0),
             acc_range_g: Some(16.0),
             mag_noise: Some(0.3),
+            mag_offset_sigma: Some(0.5),
             output: Some("increments".into()),
         }),
     };

@@ -251,13 +251,14 @@ saved!(
         sensor: SensorSheet,
     }
 );
-saved!(SensorSheetV5 for SensorSheet {
+saved!(SensorSheetV10 for SensorSheet {
     gyro_noise_density_deg_s_sqrt_hz: f64,
     gyro_bias_instability_deg_h: f64,
     gyro_range_deg_s: f64,
     acc_noise_density_ug_sqrt_hz: f64,
     acc_range_g: f64,
     mag_noise: f64,
+    mag_offset_sigma: f64,
     output: Output,
 });
 unit_enum!(OutputV8 for Output { Unstated, Mean, Increments, Instant });

@@ -37,7 +37,8 @@ const MAGIC: &[u8; 8] = b"ATTCKPT\0";
 /// 9: the rest detector holds its deviations' own low-pass (`crate::ahrs::rest`; 8 cannot say it:
 /// refused).
 /// 10: the raw-IMU pipeline holds north's variance while the field is unconfirmed, which its
-/// published estimates carry (`crate::ahrs`; 9 cannot say it: refused).
+/// published estimates carry, and a datasheet states what a calibration left of the hard-iron offset
+/// (`crate::ahrs`; 9 cannot say either: refused).
 pub const VERSION: u32 = 10;
 const HEADER: usize = 8 + 4 + 8 + 4;
 pub const EXTENSION: &str = "ckpt";

@@ -755,7 +755,10 @@ impl Ahrs {
         // readings give (consistent with each other at one attitude), but the reference they give
         // may be turned by an offset they cannot reveal yet; the published estimate says so.
         self.north_var = match (self.field.as_ref(), c.mag.enabled) {
-            (Some(f), true) => f.north_variance(&c.mag),
+            (Some(f), true) => f.north_variance(
+                &c.mag,
+                (self.sheet.mag_offset_sigma > 0.0).then_some(self.sheet.mag_offset_sigma),
+            ),
             _ => 0.0,
         };
         Ok(())

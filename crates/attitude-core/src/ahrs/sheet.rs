@@ -30,6 +30,11 @@ pub struct SensorSheet {
     pub acc_range_g: f64,
     /// Magnetometer noise, 1σ per axis, in the unit of the readings.
     pub mag_noise: f64,
+    /// What a calibration in place left of the magnetometer's hard-iron offset, 1σ per axis, in the
+    /// unit of the readings: until rotation confirms the field, north's uncertainty is that over the
+    /// field's horizontal part (not given: `mag.hard_iron.unconfirmed_offset` × the field's norm, an
+    /// uncalibrated sensor's).
+    pub mag_offset_sigma: f64,
     /// What a sample's outputs stand for over its interval (the datasheet's output stage); when
     /// stated it replaces the configuration's `acc.lag_intervals`, `mag.lag_intervals` and
     /// `gyro.coning` for this sensor.
@@ -113,6 +118,7 @@ impl SensorSheet {
             ),
             (self.acc_range_g, "acc_range_g"),
             (self.mag_noise, "mag_noise"),
+            (self.mag_offset_sigma, "mag_offset_sigma"),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
                 return Err(format!(
@@ -173,6 +179,7 @@ impl SensorSheet {
             ),
             acc_range_g: pick(self.acc_range_g, base.acc_range_g),
             mag_noise: pick(self.mag_noise, base.mag_noise),
+            mag_offset_sigma: pick(self.mag_offset_sigma, base.mag_offset_sigma),
             output: if self.output == Output::Unstated {
                 base.output
             } else {

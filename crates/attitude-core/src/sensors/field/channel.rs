@@ -438,17 +438,21 @@ impl FieldChannel {
 
     /// The variance (rad²) of the reference's north about the vertical that the readings cannot yet
     /// reveal: until rotation confirms the reference, the reading it was taken from may hold a
-    /// body-fixed offset of `hard_iron.unconfirmed_offset` × the norm (1σ per axis), whose part
-    /// across the horizontal field turns north by about that over `cos(dip)` (capped at a heading
-    /// uniform on the circle, `π/√3`). 0 once confirmed: the accepted offset's own uncertainty is in
-    /// every observation's σ.
-    pub fn north_variance(&self, c: &MagConfig) -> f64 {
+    /// body-fixed offset, 1σ per axis `stated` (what the user says a calibration left, in the
+    /// readings' unit) or, not stated, `hard_iron.unconfirmed_offset` × the norm, whose part across
+    /// the horizontal field turns north by about that over the field's horizontal part (capped at a
+    /// heading uniform on the circle, `π/√3`). 0 once confirmed: the accepted offset's own
+    /// uncertainty is in every observation's σ.
+    pub fn north_variance(&self, c: &MagConfig, stated: Option<f64>) -> f64 {
         if self.confirmed {
             return 0.0;
         }
         let horizontal = self.dip.cos().abs().max(1e-3);
-        let sigma =
-            (c.hard_iron.unconfirmed_offset / horizontal).min(std::f64::consts::PI / 3f64.sqrt());
+        let relative = match stated {
+            Some(s) => s / self.norm.max(1e-12),
+            None => c.hard_iron.unconfirmed_offset,
+        };
+        let sigma = (relative / horizontal).min(std::f64::consts::PI / 3f64.sqrt());
         sigma * sigma
     }
 
@@ -637,7 +641,7 @@ mod tests {
         let dip = dip_rad(&first.normalize(), &up);
         let mut ch = FieldChannel::new(first.norm(), dip, &Vector3::y());
         assert!(!ch.confirmed);
-        let north_sigma = ch.north_variance(&c).sqrt();
+        let north_sigma = ch.north_variance(&c, None).sqrt();
         let dt = 0.01;
         let mut q = Quaternion::IDENTITY;
         let mut jump = None;
@@ -659,23 +663,26 @@ mod tests {
         let j = jump.expect("the acceptance reports the heading change");
         assert!(j > 0.05, "{j}");
         assert!(j <= 2.576 * north_sigma, "{j} against 1σ {north_sigma}");
-        assert_eq!(ch.north_variance(&c), 0.0);
+        assert_eq!(ch.north_variance(&c, None), 0.0);
     }
 
-    /// North's variance before rotation confirms the field: the offset's 1σ (a fraction of the norm)
-    /// over the horizontal part of the field, capped at a heading uniform on the circle; none for a
-    /// magnetometer calibrated in place (`unconfirmed_offset` 0).
+    /// North's variance before rotation confirms the field: the offset's 1σ (a fraction of the norm,
+    /// or as the user states it in the readings' unit) over the horizontal part of the field, capped
+    /// at a heading uniform on the circle; none for a magnetometer calibrated in place
+    /// (`unconfirmed_offset` 0).
     #[test]
     fn north_variance_of_an_unconfirmed_field() {
         let mut c = MagConfig::default();
         c.hard_iron.unconfirmed_offset = 0.2;
         let ch = FieldChannel::new(45.0, 60f64.to_radians(), &Vector3::y());
         // 0.2 / cos 60° = 0.4 rad.
-        assert!((ch.north_variance(&c) - 0.16).abs() < 1e-12);
+        assert!((ch.north_variance(&c, None) - 0.16).abs() < 1e-12);
+        // 0.45 µT stated: 0.01 of the norm, 0.02 rad.
+        assert!((ch.north_variance(&c, Some(0.45)) - 4e-4).abs() < 1e-12);
         let steep = FieldChannel::new(45.0, 85f64.to_radians(), &Vector3::y());
         let uniform = std::f64::consts::PI / 3f64.sqrt();
-        assert!((steep.north_variance(&c) - uniform * uniform).abs() < 1e-12);
+        assert!((steep.north_variance(&c, None) - uniform * uniform).abs() < 1e-12);
         c.hard_iron.unconfirmed_offset = 0.0;
-        assert_eq!(ch.north_variance(&c), 0.0);
+        assert_eq!(ch.north_variance(&c, None), 0.0);
     }
 }
