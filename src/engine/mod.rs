@@ -408,6 +408,12 @@ impl Engine {
         }
     }
 
+    /// Whether an estimate put now would reach anyone (`P/@/health` `listened`). The service's outlets
+    /// share one matching flag (`service::outlets`), so an outlet made for the question answers it.
+    pub fn estimates_listened(&self) -> bool {
+        (self.outlets)(&self.keys.vehicle("_", Leaf::Estimate)).wanted()
+    }
+
     pub fn uptime_s(&self) -> f64 {
         self.started.elapsed().as_secs_f64()
     }

@@ -102,6 +102,7 @@ pub fn health(engine: &Engine, member: &Member) -> HealthMsg {
         received: c.received.load(Ordering::Relaxed),
         processed: c.processed.load(Ordering::Relaxed),
         estimates_published: c.estimates.load(Ordering::Relaxed),
+        listened: engine.estimates_listened(),
         rejected,
         queries: c.queries.load(Ordering::Relaxed),
         held: sum(|t| t.held as u64),

@@ -45,6 +45,11 @@ pub struct HealthMsg {
     /// Samples the filters used.
     pub processed: u64,
     pub estimates_published: u64,
+    /// A subscriber of another session matches `P/*/estimate`: while none does, estimates are neither
+    /// serialised nor put (queries still answer the last), so one subscribed a moment ago may miss
+    /// the next until this is true.
+    #[serde(default)]
+    pub listened: bool,
     /// Refused inputs and requests, by code.
     pub rejected: BTreeMap<String, u64>,
     pub queries: u64,

@@ -552,6 +552,7 @@ fn full_messages() -> Vec<(&'static str, Value)> {
         received: 10,
         processed: 9,
         estimates_published: 3,
+        listened: true,
         rejected: BTreeMap::from([
             (NOT_INITIALIZED.to_string(), 1),
             ("queue_full".to_string(), 2),

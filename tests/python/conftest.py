@@ -246,8 +246,12 @@ class Collector:
 
 def subscribe_synced(client: AttitudeClient, subscribe: Callable, *args, **kwargs):
     """Declares a subscription, then makes a round trip to the service on the same session: the service
-    processed the declaration (messages on one link are in order) before it answers, so nothing it
-    publishes afterwards is missed."""
+    received the declaration (messages on one link are in order) before it answers. Estimates are put only
+    while a subscriber matches, and the service's zenoh tells it of a new one on its own time (behind a
+    router, later still): for them it waits for the health's ``listened``. Nothing the service publishes
+    afterwards is missed."""
     sub = subscribe(*args, **kwargs)
     client.health()
+    if getattr(subscribe, "__name__", "") == "subscribe_estimates":
+        client.wait_listened()
     return sub

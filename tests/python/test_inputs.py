@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import json
+import signal
 
 import pytest
 
-from conftest import PREFIX, Collector, subscribe_synced, validate, wait_until
+from conftest import PREFIX, VEHICLES, Collector, ServiceProcess, subscribe_synced, validate, wait_until
 from sim import Scenario
 
 GOOD_OBS = [{"body": [1, 0, 0], "ref": [1, 0, 0], "sigma": 1e-4}, {"body": [0, 1, 0], "ref": [0, 1, 0], "sigma": 1e-4}]
@@ -43,6 +44,33 @@ def test_health_counters_grow(client):
     row = next(r for r in client.vehicles() if r["vehicle"] == "h-1")
     assert (row["received"], row["processed"], row["estimates"], row["rejected"]) == (n, n, len(chunks), 0), row
 
+
+
+def test_health_says_whether_anyone_listens_to_the_estimates():
+    """`listened`: with no subscriber the service serialises and puts no estimate (queries still answer the
+    last); a subscriber of another session makes it true, and then the next estimate reaches it; gone, false
+    again."""
+    svc = ServiceProcess({"vehicles": VEHICLES})
+    c = svc.client()
+    try:
+        svc.wait_ready(c)
+        h = c.health()
+        validate("health", h)
+        assert h["listened"] is False, h
+        c.publish_gyro("l-1", 0.5, [0.0, 0.0, 0.0])
+        c.publish_vectors("l-1", 1.0, GOOD_OBS)
+        wait_until(lambda: c.health()["estimates_published"] == 1, 10, "the first estimate")
+        assert c.get_state("l-1")["t"] == 1.0  # made and kept for the queries
+        estimates = Collector()
+        sub = c.subscribe_estimates(estimates)
+        wait_until(lambda: c.health()["listened"], 10, "listened after subscribing")
+        c.publish_vectors("l-1", 2.0, GOOD_OBS)
+        wait_until(lambda: [m["t"] for m in estimates.snapshot()] == [2.0], 10, "the estimate at t = 2 alone")
+        sub.undeclare()
+        wait_until(lambda: not c.health()["listened"], 10, "not listened once the subscriber is gone")
+    finally:
+        c.close()
+        svc.stop(signal.SIGTERM, timeout=10.0)
 
 # (leaf, payload, code): each must be refused with `code` on P/V/rejected, with the input's key.
 MALFORMED = [

@@ -318,10 +318,11 @@ def deployment(request):
 
 
 def operator_estimates(d: Deployment) -> tuple[Collector, object]:
-    """The operator's subscription to every estimate, synchronised with the service."""
+    """The operator's subscription to every estimate, synchronised with the service (which puts estimates
+    only while it knows of a subscriber: behind a router a health query could come back before that)."""
     estimates = Collector()
     sub = d.operator.subscribe_estimates(estimates)
-    d.operator.health()
+    d.operator.wait_listened()
     return estimates, sub
 
 

@@ -345,6 +345,20 @@ class AttitudeClient:
         """Polls ``P/@/health`` until the service answers; returns the health reply or raises TimeoutError."""
         return self.health(timeout=timeout)
 
+    def wait_listened(self, timeout: float = 10.0) -> dict:
+        """Waits until the service knows of a subscriber of its estimates (``P/@/health`` ``listened``) and
+        returns that health reply. The service puts estimates only while one matches, and its zenoh learns of
+        a new subscriber on its own time (behind a router, later than a query's round trip): call this after
+        subscribing, before the inputs whose estimates you count on. Raises TimeoutError."""
+        deadline = time.monotonic() + timeout
+        while True:
+            h = self.health(timeout=max(0.1, deadline - time.monotonic()))
+            if h.get("listened", True):  # (a service older than the field puts estimates regardless)
+                return h
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"the service at {self.prefix} sees no subscriber of its estimates after {timeout} s")
+            time.sleep(0.01)
+
     # ------------------------------------------------------------------------------------------
     # Inputs
 
@@ -645,7 +659,8 @@ class AttitudeClient:
 
     def health(self, timeout: float | None = None) -> dict:
         """``P/@/health``: service counters (``received``, ``processed``, ``estimates_published``,
-        ``rejected`` by code, ``vehicles``, ``queries``, ``uptime_s``, ``version``, ``status``)."""
+        ``rejected`` by code, ``vehicles``, ``queries``, ``uptime_s``, ``version``, ``status``) and ``listened``
+        (a subscriber of the estimates is known: ``wait_listened``)."""
         return self._call(f"{self.prefix}/@/health", timeout=timeout)
 
     # ------------------------------------------------------------------------------------------
@@ -667,7 +682,8 @@ class AttitudeClient:
 
     def subscribe_estimates(self, callback: Callable[[dict], None], vehicle: str = "*"):
         """Calls ``callback(estimate)`` for every estimate published on ``P/<vehicle>/estimate``
-        (``vehicle`` may be ``*``). Returns the subscriber: keep it; ``undeclare()`` it to stop."""
+        (``vehicle`` may be ``*``). Returns the subscriber: keep it; ``undeclare()`` it to stop. The service puts
+        estimates only once it knows of a subscriber: ``wait_listened()`` before counting on the next one."""
         return self._subscribe(self.key(vehicle, "estimate"), callback)
 
     def subscribe_rejections(self, callback: Callable[[dict], None], vehicle: str = "*", events: bool = False):

@@ -294,6 +294,7 @@ class Observer:
         self._thread = threading.Thread(target=self._drain, daemon=True)
         self._thread.start()
         client.health()  # the service has the subscriptions before the first input
+        client.wait_listened()  # and puts estimates: it knows of the subscriber
 
     def _index(self, tt: float) -> int | None:
         i = int(np.searchsorted(self.t, tt - 1e-7))

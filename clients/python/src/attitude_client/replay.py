@@ -565,6 +565,7 @@ def replay(client: AttitudeClient, trial: dict, specs: list[str], args) -> dict:
             fields["t"] = args.reset_t  # re-anchors the vehicle's time (a vehicle replayed again)
         client.reset(vehicle, **fields)
     time.sleep(0.2)  # let the subscriptions reach the service
+    client.wait_listened()  # (and the service know of them: it puts estimates only while one matches)
 
     t0 = time.monotonic()
     sent = 0

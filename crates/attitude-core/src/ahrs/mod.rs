@@ -396,7 +396,10 @@ impl Ahrs {
         bias_sigma_rad_s: &Vector3<f64>,
     ) -> Option<InitialState> {
         if self.phase == Phase::Running {
+            // (The datasheet is the vehicle's, not learnt: it stays.)
+            let sheet = std::mem::take(&mut self.sheet);
             *self = Ahrs::new(c);
+            self.sheet = sheet;
         }
         self.preprocess(c, s, &Vector3::zeros(), None, None, &Vector3::zeros());
         self.line.step(s, 0.0, false);
@@ -459,6 +462,8 @@ impl Ahrs {
             kappa = -dip.tan().clamp(-10.0, 10.0);
             self.field = Some(FieldChannel::new(n, dip, &Vector3::y()));
         }
+        // (An estimate published straight from the alignment carries it too.)
+        self.doubt_north(c);
         self.phase = Phase::Running;
         // Initial covariance: tilt and heading σ in the reference frame (east, north, up), rotated
         // into the body.
@@ -751,9 +756,14 @@ impl Ahrs {
                 }
             }
         }
-        // North itself, while rotation has not confirmed the field: the filter keeps the heading the
-        // readings give (consistent with each other at one attitude), but the reference they give
-        // may be turned by an offset they cannot reveal yet; the published estimate says so.
+        self.doubt_north(c);
+        Ok(())
+    }
+
+    /// North itself, while rotation has not confirmed the field: the filter keeps the heading the
+    /// readings give (consistent with each other at one attitude), but the reference they give may
+    /// be turned by an offset they cannot reveal yet; the published estimate says so.
+    fn doubt_north(&mut self, c: &AhrsConfig) {
         self.north_var = match (self.field.as_ref(), c.mag.enabled) {
             (Some(f), true) => f.north_variance(
                 &c.mag,
@@ -761,7 +771,6 @@ impl Ahrs {
             ),
             _ => 0.0,
         };
-        Ok(())
     }
 }
 
