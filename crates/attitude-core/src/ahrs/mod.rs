@@ -118,9 +118,9 @@ pub struct Ahrs {
     field: Option<FieldChannel>,
     since_bias_s: f64,
     /// What a published estimate adds to the filter's attitude covariance now (see
-    /// [`Ahrs::published_attitude_covariance`]): the time stamp's (body frame, rad²) and north's
-    /// about the vertical (rad²).
+    /// [`Ahrs::published_attitude_covariance`]): the time stamp's (body frame, rad²)...
     published: Matrix3<f64>,
+    /// ...and north's about the estimate's vertical (rad², 0 once rotation confirms the field).
     north_var: f64,
     tilt_inconsistent_s: f64,
     heading_inconsistent_s: f64,
