@@ -40,7 +40,7 @@ use crate::wire::{
     ResetReplyMsg,
 };
 use std::collections::HashMap;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
 
@@ -143,6 +143,9 @@ pub struct Engine {
     pub counters: Counters,
     started: Instant,
     vehicles: RwLock<HashMap<String, Arc<Vehicle>>>,
+    /// Vehicles whose reorder windows hold samples: the housekeeping thread looks for them among all
+    /// (a cache miss per vehicle, every 10 ms) only while there are any.
+    holding: AtomicUsize,
     /// `None` tells a worker to stop.
     work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
     sink: Sink,
@@ -238,6 +241,7 @@ impl Engine {
             counters: Counters::default(),
             started: Instant::now(),
             vehicles: RwLock::new(HashMap::new()),
+            holding: AtomicUsize::new(0),
             work_tx,
             sink,
             outlets,
@@ -327,7 +331,9 @@ impl Engine {
             let newest = c.state.snapshot().newest;
             let mut v = Vehicle::new(&id, c.state, c.counters);
             v.restored_newest = Some(newest);
-            map.insert(id.clone(), Arc::new(v));
+            let v = Arc::new(v);
+            self.count_holding(v.held.load(Ordering::Relaxed) > 0);
+            map.insert(id.clone(), v);
             self.counters.restored.fetch_add(1, Ordering::Relaxed);
         }
         tracing::info!(
@@ -349,17 +355,22 @@ impl Engine {
                 Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
                 _ => return,
             }
-            // (Every 10 ms: only the vehicles that hold samples, neither sorted nor all cloned.)
-            let holding: Vec<Arc<Vehicle>> = self
-                .vehicles
-                .read()
-                .map(|m| {
-                    m.values()
-                        .filter(|v| v.held.load(Ordering::Relaxed) > 0)
-                        .cloned()
-                        .collect()
-                })
-                .unwrap_or_default();
+            // (Every 10 ms: only the vehicles that hold samples, neither sorted nor all cloned, and
+            // none looked at while none holds any.)
+            let anyone = self.holding.load(Ordering::Relaxed) > 0;
+            let holding: Vec<Arc<Vehicle>> = if !anyone {
+                Vec::new()
+            } else {
+                self.vehicles
+                    .read()
+                    .map(|m| {
+                        m.values()
+                            .filter(|v| v.held.load(Ordering::Relaxed) > 0)
+                            .cloned()
+                            .collect()
+                    })
+                    .unwrap_or_default()
+            };
             for v in holding {
                 if !v.tick_queued.swap(true, Ordering::AcqRel) {
                     let mut inbox = v.inbox.lock().unwrap_or_else(|e| e.into_inner());
@@ -412,6 +423,19 @@ impl Engine {
     /// share one matching flag (`service::outlets`), so an outlet made for the question answers it.
     pub fn estimates_listened(&self) -> bool {
         (self.outlets)(&self.keys.vehicle("_", Leaf::Estimate)).wanted()
+    }
+
+    /// Counts a vehicle that began to hold samples (or joined the registry holding some).
+    fn count_holding(&self, holds: bool) {
+        if holds {
+            self.holding.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn holding_stopped(&self) {
+        let _ = self
+            .holding
+            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1));
     }
 
     pub fn uptime_s(&self) -> f64 {
@@ -575,7 +599,11 @@ impl Engine {
                 }
             }
             refresh_info(v, &state);
-            v.refresh_totals(&state);
+            match v.refresh_totals(&state) {
+                Some(true) => self.count_holding(true),
+                Some(false) => self.holding_stopped(),
+                None => {}
+            }
         }
         v.scheduled.store(false, Ordering::Release);
         let pending = !v.inbox.lock().unwrap_or_else(|e| e.into_inner()).is_empty();
@@ -723,6 +751,7 @@ impl Engine {
                 return false;
             }
             let v = Arc::new(Vehicle::new(id, state, SavedCounters::default()));
+            self.count_holding(v.held.load(Ordering::Relaxed) > 0);
             map.insert(id.to_string(), v.clone());
             v
         };

@@ -309,14 +309,17 @@ impl Vehicle {
         };
         {
             let state = v.state.lock().unwrap_or_else(|e| e.into_inner());
-            v.refresh_totals(&state);
+            let _ = v.refresh_totals(&state);
         }
         v
     }
 
-    pub(super) fn refresh_totals(&self, state: &VehicleState) {
+    /// Copies the state's totals for the queries; returns whether the vehicle began (`Some(true)`)
+    /// or ceased (`Some(false)`) to hold samples in its reorder window.
+    pub(super) fn refresh_totals(&self, state: &VehicleState) -> Option<bool> {
         let t = state.totals();
-        self.held.store(state.held(), Ordering::Relaxed);
+        let held = state.held();
+        let before = self.held.swap(held, Ordering::Relaxed);
         self.gated.store(t.gated, Ordering::Relaxed);
         self.reinits.store(t.reinits, Ordering::Relaxed);
         self.rollbacks.store(t.rollbacks, Ordering::Relaxed);
@@ -326,6 +329,7 @@ impl Vehicle {
         self.gaps.store(t.gaps, Ordering::Relaxed);
         self.blind_us
             .store((t.blind_s * 1e6) as u64, Ordering::Relaxed);
+        ((before > 0) != (held > 0)).then_some(held > 0)
     }
 
     pub(super) fn counters(&self) -> SavedCounters {
