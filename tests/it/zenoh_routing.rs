@@ -9,9 +9,12 @@
 //! kept (`routes_follow_peers_that_come_and_go`).
 //! Through a real link: the sender's session routes each put on its tables of the receiver's
 //! subscriptions, and the receiver's routes what arrives on its own; once more with the sender holding
-//! a declared publisher on every sibling key (as the service does for its fast vehicles). (Within one
-//! session zenoh delivers to its own subscribers without these tables, so that case would not test
-//! the change.)
+//! a declared publisher on every sibling key (as the service does for its fast vehicles).
+//! The vendored zenoh's session also keeps, per key, the callbacks of its subscribers that a sample
+//! on it reaches (for samples from a link and for its own puts), emptied by every subscription
+//! declared or undeclared: each phase delivers twice (the second time from what was kept), and the
+//! same phases run within one session too (its own puts reach its own subscribers without the
+//! routing tables, by that cache alone).
 
 use crate::common::{free_port, open_zenoh};
 use std::collections::{BTreeMap, BTreeSet};
@@ -76,25 +79,36 @@ async fn subscribe(
         .unwrap()
 }
 
-/// Puts every message (undeclared keys), then a sentinel, and waits for the sentinel; returns, per
-/// subscription, the keys it received.
+/// The subscription that catches the sentinels, each delivery's own (`zr-sentinel/N`): a sentinel
+/// of an earlier delivery still in flight must not end a later one before its messages arrived.
+const SENTINELS: &str = "zr-sentinel/*";
+
+/// Puts every message (undeclared keys), then its own sentinel, and waits for that sentinel;
+/// returns, per subscription, the keys it received.
 async fn deliver(sender: &zenoh::Session, seen: &Seen) -> BTreeMap<String, Vec<String>> {
+    static DELIVERY: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = DELIVERY.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let sentinel = format!("zr-sentinel/{n}");
     seen.lock().unwrap().clear();
     for m in messages() {
         sender.put(m, "x").await.unwrap();
     }
-    let sentinel = "zr-sentinel";
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
-        sender.put(sentinel, "x").await.unwrap();
-        if seen.lock().unwrap().contains_key(sentinel) {
+        sender.put(sentinel.as_str(), "x").await.unwrap();
+        let arrived = seen
+            .lock()
+            .unwrap()
+            .get(SENTINELS)
+            .is_some_and(|keys| keys.contains(&sentinel));
+        if arrived {
             break;
         }
         assert!(Instant::now() < deadline, "the sentinel never arrived");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
     let mut got = seen.lock().unwrap().clone();
-    got.remove(sentinel);
+    got.remove(SENTINELS);
     got
 }
 
@@ -124,10 +138,15 @@ fn sorted(mut m: BTreeMap<String, Vec<String>>) -> BTreeMap<String, BTreeSet<Str
     out
 }
 
-async fn check(sender_publishers: bool) {
+/// The three phases, each delivered twice. `one_session`: the sender is the receiver.
+async fn check(sender_publishers: bool, one_session: bool) {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let receiver = open_zenoh(std::slice::from_ref(&endpoint), &[]).await;
-    let sender = open_zenoh(&[], std::slice::from_ref(&endpoint)).await;
+    let sender = if one_session {
+        receiver.clone()
+    } else {
+        open_zenoh(&[], std::slice::from_ref(&endpoint)).await
+    };
     let seen: Seen = Arc::default();
     let mut plain: Vec<String> = (0..SIBLINGS).map(|i| format!("zr/v{i}/est")).collect();
     plain.push("zr/@hidden/est".into());
@@ -145,50 +164,64 @@ async fn check(sender_publishers: bool) {
     for key in wild() {
         wild_subs.push(subscribe(&receiver, key, &seen).await);
     }
-    let _sentinel = subscribe(&receiver, "zr-sentinel", &seen).await;
+    let _sentinel = subscribe(&receiver, SENTINELS, &seen).await;
     // The sender's puts reach the receiver's subscriptions once their declarations have arrived.
     tokio::time::sleep(Duration::from_millis(500)).await;
 
     let mut all: Vec<String> = plain.clone();
     all.extend(wild().into_iter().map(String::from));
-    assert_eq!(
-        sorted(deliver(&sender, &seen).await),
-        sorted(expected(&all)),
-        "with the wild subscriptions (sender's publishers: {sender_publishers})"
-    );
+    let how = format!("sender's publishers: {sender_publishers}, one session: {one_session}");
+    for round in 1..=2 {
+        assert_eq!(
+            sorted(deliver(&sender, &seen).await),
+            sorted(expected(&all)),
+            "with the wild subscriptions, delivery {round} ({how})"
+        );
+    }
     for s in wild_subs {
         s.undeclare().await.unwrap();
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
-    assert_eq!(
-        sorted(deliver(&sender, &seen).await),
-        sorted(expected(&plain)),
-        "after the wild subscriptions were undeclared (sender's publishers: {sender_publishers})"
-    );
+    for round in 1..=2 {
+        assert_eq!(
+            sorted(deliver(&sender, &seen).await),
+            sorted(expected(&plain)),
+            "after the wild subscriptions were undeclared, delivery {round} ({how})"
+        );
+    }
     // And declared again: found again, once each.
     for key in wild() {
         subs.push(subscribe(&receiver, key, &seen).await);
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
-    assert_eq!(
-        sorted(deliver(&sender, &seen).await),
-        sorted(expected(&all)),
-        "with the wild subscriptions declared again (sender's publishers: {sender_publishers})"
-    );
+    for round in 1..=2 {
+        assert_eq!(
+            sorted(deliver(&sender, &seen).await),
+            sorted(expected(&all)),
+            "with the wild subscriptions declared again, delivery {round} ({how})"
+        );
+    }
     drop(subs);
     drop(publishers);
-    sender.close().await.unwrap();
+    if !one_session {
+        sender.close().await.unwrap();
+    }
     receiver.close().await.unwrap();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn undeclared_keys_reach_exactly_the_intersecting_subscribers() {
-    check(false).await;
+    check(false, false).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn undeclared_keys_reach_exactly_the_intersecting_subscribers_beside_declared_publishers() {
-    check(true).await;
+    check(true, false).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_sessions_own_puts_reach_exactly_its_intersecting_subscribers() {
+    check(false, true).await;
 }
 
 /// Puts `keys` from `sender` (undeclared keys), five times at least (so that their routes are kept),

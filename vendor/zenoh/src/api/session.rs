@@ -183,7 +183,23 @@ pub(crate) struct SessionState {
     pub(crate) aggregated_subscribers: Vec<OwnedKeyExpr>,
     pub(crate) aggregated_publishers: Vec<OwnedKeyExpr>,
     pub(crate) publisher_qos_tree: KeBoxTree<PublisherQoSConfig>,
+    /// attitude-service's change (vendor/README.md): the subscribers' callbacks of each key a sample
+    /// came on without a declared resource, emptied by every change to the subscribers.
+    key_callbacks: Mutex<KeyCallbacks>,
     span: tracing::span::Span,
+}
+
+/// attitude-service's change (vendor/README.md): at most this many keys per locality keep their
+/// callbacks; a new key when it is full empties it.
+const KEY_CALLBACKS_MAX: usize = 16_384;
+
+/// attitude-service's change (vendor/README.md): the plain (not liveliness, not historical)
+/// subscribers' callbacks by key, one map for remote samples and one for local ones (`local` as an
+/// index). Filled under the state's read lock from `subscribers`, emptied under its write lock by
+/// `subscribers_mut`, so an entry always reflects the subscribers as they are.
+#[derive(Default)]
+struct KeyCallbacks {
+    by_key: [HashMap<String, SingleOrVec<(Callback<Sample>, KeyExpr<'static>)>>; 2],
 }
 
 impl SessionState {
@@ -216,6 +232,7 @@ impl SessionState {
             aggregated_subscribers,
             aggregated_publishers,
             publisher_qos_tree,
+            key_callbacks: Mutex::new(KeyCallbacks::default()),
             span: tracing::debug_span!("sess", zid = %ZenohIdProto::from(runtime.zid()).short()), // TODO(regions): include the face id
         }
     }
@@ -359,6 +376,15 @@ impl SessionState {
         &mut self,
         kind: SubscriberKind,
     ) -> &mut HashMap<Id, Arc<SubscriberState>> {
+        // attitude-service's change (vendor/README.md): every change of the subscribers comes through
+        // here, before it is made; the map still holds each cached callback, so none is dropped here.
+        if kind == SubscriberKind::Subscriber {
+            let cache = self
+                .key_callbacks
+                .get_mut()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            cache.by_key.iter_mut().for_each(HashMap::clear);
+        }
         match kind {
             SubscriberKind::Subscriber => &mut self.subscribers,
             SubscriberKind::LivelinessSubscriber => &mut self.liveliness_subscribers,
@@ -511,6 +537,18 @@ impl SessionState {
         } else {
             match self.wireexpr_to_keyexpr(wire_expr, local) {
                 Ok(key_expr) => {
+                    // attitude-service's change (vendor/README.md): a key seen before takes its
+                    // callbacks from the cache instead of intersecting every subscriber's key.
+                    let cached = kind == SubscriberKind::Subscriber && !historical;
+                    if cached {
+                        let cache = self
+                            .key_callbacks
+                            .lock()
+                            .unwrap_or_else(std::sync::PoisonError::into_inner);
+                        if let Some(hit) = cache.by_key[local as usize].get(key_expr.as_str()) {
+                            return SubscriberCallbacks(hit.clone());
+                        }
+                    }
                     for sub in self.subscribers(kind).values() {
                         if (sub.origin == Locality::Any
                             || (local == (sub.origin == Locality::SessionLocal)))
@@ -519,6 +557,17 @@ impl SessionState {
                         {
                             callbacks.push((sub.callback.clone(), key_expr.clone().into_owned()));
                         }
+                    }
+                    if cached {
+                        let mut cache = self
+                            .key_callbacks
+                            .lock()
+                            .unwrap_or_else(std::sync::PoisonError::into_inner);
+                        let map = &mut cache.by_key[local as usize];
+                        if map.len() >= KEY_CALLBACKS_MAX {
+                            map.clear();
+                        }
+                        map.insert(key_expr.as_str().to_owned(), callbacks.clone());
                     }
                 }
                 Err(err) => {
