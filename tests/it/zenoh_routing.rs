@@ -12,8 +12,9 @@
 //! a declared publisher on every sibling key (as the service does for its fast vehicles).
 //! The vendored zenoh's session also keeps, per key, the callbacks of its subscribers that a sample
 //! on it reaches (for samples from a link and for its own puts), emptied by every subscription
-//! declared or undeclared: each phase delivers twice (the second time from what was kept), and the
-//! same phases run within one session too (its own puts reach its own subscribers without the
+//! declared or undeclared: each phase delivers twice (the second time from what was kept), a fourth
+//! phase keeps one wild subscription (`zr/**`, so that its keys still reach the receiver) and undeclares
+//! the others, and the same phases run within one session too (its own puts reach its own subscribers without the
 //! routing tables, by that cache alone).
 
 use crate::common::{free_port, open_zenoh};
@@ -190,8 +191,9 @@ async fn check(sender_publishers: bool, one_session: bool) {
         );
     }
     // And declared again: found again, once each.
+    let mut wild_again = Vec::new();
     for key in wild() {
-        subs.push(subscribe(&receiver, key, &seen).await);
+        wild_again.push((key, subscribe(&receiver, key, &seen).await));
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
     for round in 1..=2 {
@@ -199,6 +201,26 @@ async fn check(sender_publishers: bool, one_session: bool) {
             sorted(deliver(&sender, &seen).await),
             sorted(expected(&all)),
             "with the wild subscriptions declared again, delivery {round} ({how})"
+        );
+    }
+    // All undeclared but `zr/**`: the keys it matches still come to the receiver, and no other
+    // wild subscription, though each matched them a moment ago, receives them.
+    let kept = "zr/**";
+    for (key, sub) in wild_again {
+        if key == kept {
+            subs.push(sub);
+        } else {
+            sub.undeclare().await.unwrap();
+        }
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut plain_and_kept = plain.clone();
+    plain_and_kept.push(kept.into());
+    for round in 1..=2 {
+        assert_eq!(
+            sorted(deliver(&sender, &seen).await),
+            sorted(expected(&plain_and_kept)),
+            "with every wild subscription but {kept} undeclared, delivery {round} ({how})"
         );
     }
     drop(subs);
