@@ -20,7 +20,8 @@
 # (`loadgen`) and `bench` are LAB_BINARY's (default target/release/attitude-lab). It prints
 # one line per run (estimates/s, lost, rejected, p50, p99, max, the service's CPU seconds per 1000
 # estimates and its peak RSS) and, per case, the median over the rounds of each run's p99 over the
-# echo's p99 of the same round. Each round starts with the machine's state: the load average and
+# echo's p99 of the same round. Under each service run a `#` line gives each thread's share of the service's
+# CPU over the load (/proc/PID/task/*/stat, the threads named alike summed: the workers are one line). Each round starts with the machine's state: the load average and
 # `bench`'s particle-filter step (1000 particles) in those minutes (17.8 µs on a quiet machine).
 # The raw JSON of every run stays in the output folder it names.
 set -euo pipefail
@@ -54,6 +55,35 @@ load_args() { # the loadgen options of a case
   esac
 }
 
+# thread_ticks PID: the process's CPU ticks by thread name ("name=ticks ..."), digits and '-' at the end of
+# a name dropped so that a pool's threads are one entry.
+thread_ticks() {
+  python3 - "$1" <<'PY'
+import collections, os, sys
+pid, per = sys.argv[1], collections.Counter()
+for t in os.listdir(f"/proc/{pid}/task"):
+    try:
+        s = open(f"/proc/{pid}/task/{t}/stat").read()
+    except OSError:
+        continue  # (a thread that ended between the listing and the read)
+    f = s[s.rindex(")") + 2:].split()
+    per[s[s.index("(") + 1:s.rindex(")")].rstrip("0123456789-")] += int(f[11]) + int(f[12])
+print(" ".join(f"{k}={v}" for k, v in per.items()))
+PY
+}
+
+# thread_shares BEFORE AFTER: each thread name's share of the ticks between two thread_ticks.
+thread_shares() {
+  python3 - "$1" "$2" <<'PY'
+import sys
+parse = lambda a: {k: int(v) for k, v in (x.rsplit("=", 1) for x in a.split())}
+b, a = parse(sys.argv[1]), parse(sys.argv[2])
+d = {k: v - b.get(k, 0) for k, v in a.items()}
+total = sum(d.values()) or 1
+print(", ".join(f"{k} {100 * v / total:.1f}%" for k, v in sorted(d.items(), key=lambda kv: -kv[1]) if v > 0))
+PY
+}
+
 # run CASE LABEL [BINARY]: the echo when BINARY is empty, else that binary's service.
 run() {
   local case=$1 label=$2 b=${3:-} json=$out/$1-$2-$4.json
@@ -66,8 +96,9 @@ run() {
     $b serve --config "$conf/$case.json5" --listen "tcp/127.0.0.1:$port" 2> "$json.log" &
     local pid=$!
     sleep 1
-    local peak=0 cpu0 cpu1
+    local peak=0 cpu0 cpu1 threads0 threads1
     cpu0=$(awk '{print $14 + $15}' "/proc/$pid/stat")
+    threads0=$(thread_ticks $pid)
     # shellcheck disable=SC2046
     $lab loadgen $(load_args "$case") --connect "tcp/127.0.0.1:$port" --json > "$json" &
     local lg=$!
@@ -78,7 +109,9 @@ run() {
     done
     wait $lg
     cpu1=$(awk '{print $14 + $15}' "/proc/$pid/stat")
+    threads1=$(thread_ticks $pid)
     kill -TERM $pid; wait $pid || true
+    thread_shares "$threads0" "$threads1" > "$json.threads"
     echo "{\"cpu_s\": $(( cpu1 - cpu0 ))e-2, \"rss_peak_kb\": $peak}" > "$json.service"
   fi
   jq -s -r --arg l "$label" --arg c "$case" '.[0] * .[1] | [$c, $l, (.rate_per_s|floor), .lost, .rejected,
@@ -86,6 +119,8 @@ run() {
       (if .cpu_s then (.cpu_s / .estimates * 1e7 | round / 10) else "-" end),
       (if .rss_peak_kb then (.rss_peak_kb/1024|round) else "-" end), (.send_lag_max_ms*10|round/10)]
       | @tsv' "$json" "$json.service"
+  [[ -n $b ]] && echo "#   threads: $(cat "$json.threads")"
+  return 0
 }
 
 echo "output: $out; $rounds round(s) of ${cases[*]}, $dur s each; binary $bin${other:+, other $other}; lab $lab"
