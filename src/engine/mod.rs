@@ -332,7 +332,7 @@ impl Engine {
             let mut v = Vehicle::new(&id, c.state, c.counters);
             v.restored_newest = Some(newest);
             let v = Arc::new(v);
-            self.count_holding(v.held.load(Ordering::Relaxed) > 0);
+            self.count_if_holding(&v);
             map.insert(id.clone(), v);
             self.counters.restored.fetch_add(1, Ordering::Relaxed);
         }
@@ -357,8 +357,7 @@ impl Engine {
             }
             // (Every 10 ms: only the vehicles that hold samples, neither sorted nor all cloned, and
             // none looked at while none holds any.)
-            let anyone = self.holding.load(Ordering::Relaxed) > 0;
-            let holding: Vec<Arc<Vehicle>> = if !anyone {
+            let holding: Vec<Arc<Vehicle>> = if self.holding.load(Ordering::Relaxed) == 0 {
                 Vec::new()
             } else {
                 self.vehicles
@@ -425,11 +424,15 @@ impl Engine {
         (self.outlets)(&self.keys.vehicle("_", Leaf::Estimate)).wanted()
     }
 
-    /// Counts a vehicle that began to hold samples (or joined the registry holding some).
-    fn count_holding(&self, holds: bool) {
-        if holds {
-            self.holding.fetch_add(1, Ordering::Relaxed);
+    /// A vehicle joins the registry (restored, adopted) holding samples already: counted at once.
+    fn count_if_holding(&self, v: &Vehicle) {
+        if v.held.load(Ordering::Relaxed) > 0 {
+            self.holding_began();
         }
+    }
+
+    fn holding_began(&self) {
+        self.holding.fetch_add(1, Ordering::Relaxed);
     }
 
     fn holding_stopped(&self) {
@@ -600,7 +603,7 @@ impl Engine {
             }
             refresh_info(v, &state);
             match v.refresh_totals(&state) {
-                Some(true) => self.count_holding(true),
+                Some(true) => self.holding_began(),
                 Some(false) => self.holding_stopped(),
                 None => {}
             }
@@ -751,7 +754,7 @@ impl Engine {
                 return false;
             }
             let v = Arc::new(Vehicle::new(id, state, SavedCounters::default()));
-            self.count_holding(v.held.load(Ordering::Relaxed) > 0);
+            self.count_if_holding(&v);
             map.insert(id.to_string(), v.clone());
             v
         };
