@@ -477,6 +477,14 @@ impl VehicleState {
     /// Keeps the state before the sample of `key` when the last one kept is an interval older (or
     /// there is none), and when it fits the byte cap.
     fn keep_state_if_due(&mut self, key: Key, policy: &Policy) {
+        // (Between two kept states the interval is judged by the newest one's bytes: a state's size
+        // changes only with a reset or a sensor's first use, and counting it walks the vehicle's maps,
+        // a cost on every sample otherwise.)
+        if let Some(k) = self.history.kept.back() {
+            if key.t_s - k.t_s < History::interval_s(k.bytes, policy) {
+                return;
+            }
+        }
         let bytes = self.kept_bytes();
         if bytes > policy.history_bytes {
             // Even one does not fit: no history (a late sample is refused).
