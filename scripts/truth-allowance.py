@@ -12,6 +12,12 @@ this shows is the truth's (marker noise and glitches, a mount that is not rigid,
 under 30 °/s throughout the window) and moving. It is a measurement to read beside the allowance (where the truth
 is far worse in motion than at rest, no estimator's error can be scored as finely there), not an allowance itself.
 
+Two more measures say whether that disagreement in motion is the sensor's or the truth's time stamps: the truth's
+**time lag** behind the gyro (the shift of the truth that best matches the rotation angles over windows of 0.1 s in
+motion, a rate taken to cover the interval before its time stamp; searched over ±60 ms by 0.5 ms) and the gyro's
+**scale** against the truth (the median ratio of the truth's rotation angle to the gyro's over the windows that
+turn more than 10°: 1 for a gyro whose scale factor is right).
+
     .venv/bin/python scripts/truth-allowance.py RECORDING.hdf5|RECORDING.csv [...]
 """
 import sys
@@ -63,6 +69,60 @@ def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
     return ang, peak < calm_rad_s
 
 
+def angle_pairs(tr, qt_body, window_s=0.1, min_deg=0.0):
+    """Per window of ``window_s`` in motion (truth known at both ends): the gyro's rotation angle (rad; its rest
+    median as its bias) and a function giving the truth's over the same window shifted by a lag (s)."""
+    g = tr["gyr"]; t = tr["t"]; n = len(g)
+    rs = rests(g, tr["rate_hz"])
+    bias = np.median(np.concatenate([g[k:j] for k, j in rs]), axis=0) if rs else np.zeros(3)
+    steps = expq((g[1:] - bias) * np.diff(t)[:, None])
+    cum = np.empty((n, 4)); cum[0] = [1, 0, 0, 0]
+    for k in range(1, n):
+        cum[k] = quatmult(cum[k - 1][None], steps[k - 1][None])[0]
+    w = max(2, int(round(window_s * tr["rate_hz"])))
+    s = np.arange(0, n - w, max(1, w // 2))
+    s = s[tr["movement"][s]]
+    ag = turn(quatmult(invquat(cum[s]), cum[s + w]))
+    keep = ag >= np.radians(min_deg)
+    s, ag = s[keep], ag[keep]
+    ok = np.isfinite(qt_body).all(1)
+    tk, qk = t[ok], qt_body[ok]
+
+    def truth_at(x):
+        q = np.column_stack([np.interp(x, tk, qk[:, j]) for j in range(4)])
+        return q / np.linalg.norm(q, axis=1)[:, None]
+
+    def truth_angles(lag):
+        inside = (t[s] + lag >= tk[0]) & (t[s + w] + lag <= tk[-1])
+        return turn(quatmult(invquat(truth_at(t[s] + lag)), truth_at(t[s + w] + lag))), inside
+
+    return ag, truth_angles
+
+
+def turn(d):
+    """Rotation angles (rad) of quaternions (rows)."""
+    return 2 * np.arctan2(np.linalg.norm(d[:, 1:], axis=1), np.abs(d[:, 0]))
+
+
+def time_lag(tr, qt_body, max_s=0.06, step_s=0.0005):
+    """The truth's lag behind the gyro (s): the shift of the truth's time stamps that best matches the rotation
+    angles over 0.1 s windows in motion (least squares over the shifts ±max_s)."""
+    ag, truth_angles = angle_pairs(tr, qt_body)
+    best = (float("inf"), 0.0)
+    for lag in np.arange(-max_s, max_s + step_s / 2, step_s):
+        at, inside = truth_angles(lag)
+        if inside.sum() > 10:
+            best = min(best, (float(np.mean((at[inside] - ag[inside]) ** 2)), float(lag)))
+    return best[1]
+
+
+def gyro_scale(tr, qt_body, lag=0.0):
+    """The median ratio of the truth's rotation angle to the gyro's over 0.1 s windows turning more than 10°."""
+    ag, truth_angles = angle_pairs(tr, qt_body, min_deg=10.0)
+    at, inside = truth_angles(lag)
+    return float(np.median(at[inside] / ag[inside])) if inside.any() else float("nan")
+
+
 def rms(x):
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
 
@@ -100,6 +160,9 @@ def main(paths):
         p99 = np.percentile(ang, 99) if len(ang) else float("nan")
         print(f"{'':36s} gyro-vs-truth over 0.2 s, 3-axis RMS deg: calm {rms(ang[calm]):.2f} ({calm.sum()} windows), "
               f"moving {rms(ang[~calm]):.2f} ({(~calm).sum()}), 99th percentile {p99:.2f}")
+        lag = time_lag(tr, qt)
+        print(f"{'':36s} truth's lag behind the gyro {lag * 1e3:+.1f} ms; truth/gyro turn over 0.1 s "
+              f"(turns > 10 deg) {gyro_scale(tr, qt, lag):.4f}")
     e = np.array(allerr)
     print(f"ALL: n {len(e)} rms {rms(e):.2f} per-axis sigma {rms(e) / np.sqrt(2):.2f} "
           f"median {np.median(e) if len(e) else float('nan'):.2f}")

@@ -61,4 +61,23 @@ def test_the_command_prints_both_measures():
     )
     assert out.returncode == 0, out.stderr
     assert "tilt acc-vs-truth" in out.stdout and "gyro-vs-truth over 0.2 s" in out.stdout, out.stdout
+    assert "truth's lag behind the gyro" in out.stdout and "truth/gyro turn" in out.stdout, out.stdout
     assert out.stdout.splitlines()[-1].startswith("ALL gyro-vs-truth"), out.stdout
+
+
+@pytest.mark.parametrize("excerpt", sorted(EXCERPTS))
+def test_the_truths_lag_and_the_gyros_scale_are_measured(script, excerpt):
+    """A truth three samples (10.5 ms) early is found 10.5 ms earlier, and a gyro that reads 2% high gives a truth/gyro
+    turn 2% lower: what the pendulum's figures (docs/recordings.md) rest on."""
+    trial = load_trial(DATA / f"{excerpt}.hdf5", None)
+    truth = trial["opt_quat"]
+    lag = script.time_lag(trial, truth)
+    assert abs(lag) <= 0.004, lag
+    shifted = np.full_like(truth, np.nan)
+    shifted[:-3] = truth[3:]
+    step = 3 / trial["rate_hz"]
+    assert abs(script.time_lag(trial, shifted) - (lag - step)) <= 0.001, (script.time_lag(trial, shifted), lag, step)
+    scale = script.gyro_scale(trial, truth, lag)
+    assert abs(scale - 1.0) <= 0.005, scale
+    high = dict(trial, gyr=trial["gyr"] * 1.02)
+    assert abs(script.gyro_scale(high, truth, lag) * 1.02 - scale) <= 0.001, (script.gyro_scale(high, truth, lag), scale)
