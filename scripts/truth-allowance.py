@@ -45,9 +45,9 @@ def expq(v):
     return np.column_stack([np.cos(a / 2), v * k[:, None]])
 
 
-def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
-    """3-axis angles (deg) between the gyro's and the truth's rotation over windows of ``window_s`` (half
-    overlapping, truth known at both ends), and whether each window is calm."""
+def gyro_attitude(tr):
+    """The gyro's integral from the first sample, its rest median taken as its bias (a rate covers the interval
+    before its time stamp): unit quaternions per sample."""
     g = tr["gyr"]; t = tr["t"]; n = len(g)
     rs = rests(g, tr["rate_hz"])
     bias = np.median(np.concatenate([g[k:j] for k, j in rs]), axis=0) if rs else np.zeros(3)
@@ -55,6 +55,14 @@ def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
     cum = np.empty((n, 4)); cum[0] = [1, 0, 0, 0]
     for k in range(1, n):
         cum[k] = quatmult(cum[k - 1][None], steps[k - 1][None])[0]
+    return cum
+
+
+def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
+    """3-axis angles (deg) between the gyro's and the truth's rotation over windows of ``window_s`` (half
+    overlapping, truth known at both ends), and whether each window is calm."""
+    g = tr["gyr"]; n = len(g)
+    cum = gyro_attitude(tr)
     w = max(1, int(round(window_s * tr["rate_hz"])))
     known = np.isfinite(qt_body).all(1) & tr["movement"]
     s = np.arange(0, n - w, max(1, w // 2))
@@ -72,13 +80,8 @@ def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
 def angle_pairs(tr, qt_body, window_s=0.1, min_deg=0.0):
     """Per window of ``window_s`` in motion (truth known at both ends): the gyro's rotation angle (rad; its rest
     median as its bias) and a function giving the truth's over the same window shifted by a lag (s)."""
-    g = tr["gyr"]; t = tr["t"]; n = len(g)
-    rs = rests(g, tr["rate_hz"])
-    bias = np.median(np.concatenate([g[k:j] for k, j in rs]), axis=0) if rs else np.zeros(3)
-    steps = expq((g[1:] - bias) * np.diff(t)[:, None])
-    cum = np.empty((n, 4)); cum[0] = [1, 0, 0, 0]
-    for k in range(1, n):
-        cum[k] = quatmult(cum[k - 1][None], steps[k - 1][None])[0]
+    t = tr["t"]; n = len(t)
+    cum = gyro_attitude(tr)
     w = max(2, int(round(window_s * tr["rate_hz"])))
     s = np.arange(0, n - w, max(1, w // 2))
     s = s[tr["movement"][s]]
@@ -86,7 +89,11 @@ def angle_pairs(tr, qt_body, window_s=0.1, min_deg=0.0):
     keep = ag >= np.radians(min_deg)
     s, ag = s[keep], ag[keep]
     ok = np.isfinite(qt_body).all(1)
-    tk, qk = t[ok], qt_body[ok]
+    tk, qk = t[ok], qt_body[ok].copy()
+    # (One sign along the recording: a quaternion and its negative interpolate through zero.)
+    for k in range(1, len(qk)):
+        if qk[k] @ qk[k - 1] < 0:
+            qk[k] = -qk[k]
 
     def truth_at(x):
         q = np.column_stack([np.interp(x, tk, qk[:, j]) for j in range(4)])
