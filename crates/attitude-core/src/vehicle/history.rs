@@ -477,9 +477,9 @@ impl VehicleState {
     /// Keeps the state before the sample of `key` when the last one kept is an interval older (or
     /// there is none), and when it fits the byte cap.
     fn keep_state_if_due(&mut self, key: Key, policy: &Policy) {
-        // (Between two kept states the interval is judged by the newest one's bytes: a state's size
-        // changes only with a reset or a sensor's first use, and counting it walks the vehicle's maps,
-        // a cost on every sample otherwise.)
+        // (The interval is judged by the newest kept state's bytes: a state's size changes only with a
+        // reset, which empties the history, or a sensor's first use, and counting it walks the
+        // vehicle's maps, a cost on every sample otherwise.)
         if let Some(k) = self.history.kept.back() {
             if key.t_s - k.t_s < History::interval_s(k.bytes, policy) {
                 return;
@@ -491,13 +491,6 @@ impl VehicleState {
             if !self.history.kept.is_empty() {
                 self.history.clear();
             }
-            return;
-        }
-        let due = match self.history.kept.back() {
-            None => true,
-            Some(k) => key.t_s - k.t_s >= History::interval_s(bytes, policy),
-        };
-        if !due {
             return;
         }
         let mut state = self.history.take_spare().unwrap_or_default();
