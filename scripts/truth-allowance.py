@@ -72,23 +72,25 @@ def consistency(tr, qt_body, window_s=0.2, calm_rad_s=np.radians(30)):
     gyro = quatmult(invquat(cum[s]), cum[s + w])
     truth = quatmult(invquat(qt_body[s]), qt_body[s + w])
     e = quatmult(invquat(truth), gyro)
-    ang = np.degrees(2 * np.arcsin(np.clip(np.linalg.norm(e[:, 1:], axis=1), 0, 1)))
+    ang = np.degrees(turn(e))
     peak = np.array([np.abs(g[a:a + w + 1]).max() for a in s])
     return ang, peak < calm_rad_s
 
 
 def angle_pairs(tr, qt_body, window_s=0.1, min_deg=0.0):
-    """Per window of ``window_s`` in motion (truth known at both ends): the gyro's rotation angle (rad; its rest
-    median as its bias) and a function giving the truth's over the same window shifted by a lag (s)."""
+    """Per window of ``window_s`` in motion (half overlapping, truth known at both ends): the gyro's rotation angle
+    (rad; its rest median as its bias) and a function giving the truth's over the same window shifted by a lag (s),
+    with whether the shifted window lies within the truth's samples."""
     t = tr["t"]; n = len(t)
     cum = gyro_attitude(tr)
     w = max(2, int(round(window_s * tr["rate_hz"])))
+    ok = np.isfinite(qt_body).all(1)
+    known = ok & tr["movement"]
     s = np.arange(0, n - w, max(1, w // 2))
-    s = s[tr["movement"][s]]
+    s = s[known[s] & known[s + w]]
     ag = turn(quatmult(invquat(cum[s]), cum[s + w]))
     keep = ag >= np.radians(min_deg)
     s, ag = s[keep], ag[keep]
-    ok = np.isfinite(qt_body).all(1)
     tk, qk = t[ok], qt_body[ok].copy()
     # (One sign along the recording: a quaternion and its negative interpolate through zero.)
     for k in range(1, len(qk)):
