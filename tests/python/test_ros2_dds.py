@@ -23,6 +23,7 @@ import argparse
 import json
 import math
 import os
+import select
 import subprocess
 import sys
 import time
@@ -364,10 +365,28 @@ def test_latency_against_an_rclpy_echo(dds_service):
     echo_out = d.node.subscribe(Imu, "/echo/out", rcl.RELIABLE_ALL)
     echo_sub = d.node.last_subscription
     try:
+        # The echo's process first has to start (rclpy's import alone takes seconds on a busy machine): discovery's
+        # 30 s count from its node's creation.
+        said, deadline = [], time.monotonic() + 90
+        while "ready" not in said and select.select([echo.stdout], [], [], max(0.0, deadline - time.monotonic()))[0]:
+            line = echo.stdout.readline()
+            if not line:
+                break
+            said.append(line.strip())
+        assert "ready" in said, f"the echo process did not start in 90 s (exit {echo.poll()}): {said}"
         ok = rcl.wait_for(
             lambda: d.matched() and echo_pub.get_subscription_count() > 0 and echo_sub.get_publisher_count() > 0, 30
         )
-        assert ok, logpath.read_text()
+        if not ok:
+            # Which side of discovery is missing, and what the echo process said (it is still running here).
+            echo.terminate()
+            said = echo.communicate(timeout=10)[0]
+            raise AssertionError(
+                f"discovery not done in 30 s: service reads imu {d.imu.get_subscription_count()}, mag "
+                f"{d.mag.get_subscription_count()}, writes orientation {d.sub.get_publisher_count()}; echo reads "
+                f"{echo_pub.get_subscription_count()}, writes {echo_sub.get_publisher_count()}, exit "
+                f"{echo.returncode}, said:\n{said}\nservice log:\n{logpath.read_text()}"
+            )
         s = excerpt("16_undisturbed_fast_translation_B_excerpt", 2600)
         period = 1.0 / 200  # 200 Hz, a typical IMU driver's rate
         next_t = time.perf_counter()
