@@ -16,7 +16,6 @@ use thiserror::Error;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
 use zenoh::key_expr::KeyExpr;
-use zenoh::qos::CongestionControl;
 use zenoh::query::ConsolidationMode;
 
 #[derive(Debug, Error)]
@@ -201,12 +200,6 @@ pub async fn simulate(
         .map(|s| s.t_s)
         .unwrap_or(0.0);
     let steps = runs.iter().map(|r| r.measurements.len()).min().unwrap_or(0);
-    let put = |key: String, payload: Vec<u8>| {
-        session
-            .put(key, payload)
-            .encoding(Encoding::APPLICATION_JSON)
-            .congestion_control(CongestionControl::Block)
-    };
     let routed = options
         .routed
         .then(|| RoutedSender::start(session, keys, Duration::from_secs_f64(FLUSH_S)));
@@ -254,7 +247,11 @@ pub async fn simulate(
                         bias: [b[0], b[1], b[2]],
                     };
                     if let Ok(tp) = serde_json::to_vec(&msg) {
-                        put(keys.vehicle(id, Leaf::Truth), tp).await.map_err(zerr)?;
+                        // Like the inputs (an advanced publisher with a cache by default): a
+                        // subscriber this session reaches only once gossip has connected them (a
+                        // viewer beside the service) recovers the truths put before.
+                        let key = KeyExpr::try_from(keys.vehicle(id, Leaf::Truth)).map_err(zerr)?;
+                        inputs.put(&key, tp).await.map_err(zerr)?;
                         stats.truth_messages += 1;
                     }
                 }

@@ -71,3 +71,39 @@ def test_simulated_fleet_is_consistent_with_its_truth(service, client):
     # The bound's power on this data: a covariance 1.5× too small or too large in σ fails it.
     for scale in (2.25, 1 / 2.25):
         assert not lo <= anees * scale <= hi, f"the covariance scaled by 1/{scale} would pass ({anees * scale})"
+
+
+def test_a_subscriber_that_joins_late_gets_every_truth(service, new_client):
+    """`simulate` puts its truth through an advanced publisher with a cache, and the client's truth subscription
+    (`subscribe_truth`, and `messages` for the view) is an advanced subscriber that reads that cache when it discovers
+    the publisher: truths put before the subscriber's session reached the simulator's are not lost. (Between peers
+    that happens at every start: the simulator's session reaches the service at once, a script or a view beside it
+    only through gossip, and a CI run once lost the first truth of a vehicle that way.) Here the subscriber joins
+    2.5 s into a 6 s simulation at real-time speed; a plain subscription beside it, which misses the truths put
+    before, shows that it joined late."""
+    duration = 6
+    sim = subprocess.Popen(
+        [str(BIN), "simulate", "--scenario", "star-tracker", "--duration", str(duration), "--speed", "1",
+         "--vehicles", "1", "--vehicle-prefix", "latetruth", "--filters", "mekf", "--prefix", service.prefix,
+         "--connect", service.endpoint],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        time.sleep(2.5)
+        late = new_client()
+        recovered, plain = Collector(), Collector()
+        subs = [late.subscribe_truth(recovered, vehicle="latetruth1"),
+                late._subscribe(late.key("latetruth1", "truth"), plain)]
+        out, err = sim.communicate(timeout=60)
+    finally:
+        if sim.poll() is None:
+            sim.kill()
+    assert sim.returncode == 0, err
+    recovered.wait_for(lambda items: len(items) >= duration, 10, f"{duration} truths")
+    time.sleep(0.5)  # nothing more arrives: no truth twice
+    for s in subs:
+        s.undeclare()
+    ts = [m["t"] for m in recovered.snapshot()]
+    assert sorted(ts) == [float(k) for k in range(1, duration + 1)], ts
+    late_ts = [m["t"] for m in plain.snapshot()]
+    assert len(late_ts) <= duration - 2 and late_ts == ts[len(ts) - len(late_ts):], (late_ts, ts)

@@ -69,7 +69,7 @@ import zenoh
 import zenoh.ext
 
 from .estimate import Estimate
-from .stream import EstimateStream, MessageStream
+from .stream import EstimateStream, MessageStream, recovering_subscriber
 
 __all__ = [
     "AttitudeClient", "ServiceError", "KINDS", "IMU_BATCH", "ROUTES", "CACHE", "HEARTBEAT_S", "attitude_error_deg",
@@ -526,7 +526,8 @@ class AttitudeClient:
             if not leaf or any(c in leaf for c in "/*$?#"):
                 raise ValueError(f"a leaf is one key chunk without wildcards, got {leaf!r}")
         keys = [self.key(vehicles, leaf) for leaf in leaves]
-        return MessageStream(self.session, keys, maxsize=maxsize, timeout=timeout)
+        recovering = [self.key(vehicles, "truth")] if "truth" in leaves else []
+        return MessageStream(self.session, keys, maxsize=maxsize, timeout=timeout, recovering=recovering)
 
     # ------------------------------------------------------------------------------------------
     # Queries
@@ -666,7 +667,7 @@ class AttitudeClient:
     # ------------------------------------------------------------------------------------------
     # Outputs
 
-    def _subscribe(self, key: str, callback: Callable[[Any], None]):
+    def _subscribe(self, key: str, callback: Callable[[Any], None], recovering: bool = False):
         def on_sample(sample: zenoh.Sample) -> None:
             try:
                 message = json.loads(sample.payload.to_bytes())
@@ -678,6 +679,8 @@ class AttitudeClient:
             except Exception:  # a callback must not take zenoh's thread down
                 log.exception("callback for %s failed", sample.key_expr)
 
+        if recovering:
+            return recovering_subscriber(self.session, key, on_sample)
         return self.session.declare_subscriber(key, on_sample)
 
     def subscribe_estimates(self, callback: Callable[[dict], None], vehicle: str = "*"):
@@ -701,8 +704,9 @@ class AttitudeClient:
         return self._subscribe(self.key(vehicle, "rejected"), refusals)
 
     def subscribe_truth(self, callback: Callable[[dict], None], vehicle: str = "*"):
-        """Calls ``callback(truth)`` for every truth message of the simulator (``P/<vehicle>/truth``)."""
-        return self._subscribe(self.key(vehicle, "truth"), callback)
+        """Calls ``callback(truth)`` for every truth message of the simulator (``P/<vehicle>/truth``), those put
+        before this session reached the simulator's too (an advanced subscriber: ``stream.recovering_subscriber``)."""
+        return self._subscribe(self.key(vehicle, "truth"), callback, recovering=True)
 
 
 def _close_at_exit(ref: "weakref.ref[AttitudeClient]") -> None:

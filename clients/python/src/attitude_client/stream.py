@@ -35,12 +35,33 @@ log = logging.getLogger("attitude_client")
 T = TypeVar("T")
 
 
+def recovering_subscriber(session: "zenoh.Session", key: str, callback: Any) -> Any:
+    """A subscriber that also gets what an advanced publisher (``simulate``'s truth) put before this session reached
+    it: the publisher's cache, asked when the publisher is discovered, late ones too, and the heartbeat's misses.
+    Between peers, a publisher's first puts can precede the gossip connection that brings this subscriber to it
+    (clients/python/README.md); each sample still arrives once."""
+    import zenoh
+
+    return zenoh.ext.declare_advanced_subscriber(
+        session,
+        key,
+        callback,
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True),
+        recovery=zenoh.ext.RecoveryConfig(heartbeat=True),
+    )
+
+
 class _Stream(Generic[T]):
     """The buffer and the two iterator protocols; :meth:`_parse` turns ``(key, payload)`` into an item
     (``None``: not one, counted in :attr:`malformed` and skipped)."""
 
     def __init__(
-        self, session: "zenoh.Session", keys: Sequence[str], maxsize: int = 1024, timeout: float | None = None
+        self,
+        session: "zenoh.Session",
+        keys: Sequence[str],
+        maxsize: int = 1024,
+        timeout: float | None = None,
+        recovering: Sequence[str] = (),
     ):
         if maxsize < 1:
             raise ValueError("maxsize must be at least 1")
@@ -61,7 +82,10 @@ class _Stream(Generic[T]):
         self._subscribers = []
         try:
             for key in self.keys:
-                self._subscribers.append(session.declare_subscriber(key, self._on_sample))
+                if key in recovering:
+                    self._subscribers.append(recovering_subscriber(session, key, self._on_sample))
+                else:
+                    self._subscribers.append(session.declare_subscriber(key, self._on_sample))
         except Exception:
             self.close()
             raise
