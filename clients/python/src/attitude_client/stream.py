@@ -53,7 +53,8 @@ def recovering_subscriber(session: "zenoh.Session", key: str, callback: Any) -> 
 
 class _Stream(Generic[T]):
     """The buffer and the two iterator protocols; :meth:`_parse` turns ``(key, payload)`` into an item
-    (``None``: not one, counted in :attr:`malformed` and skipped)."""
+    (``None``: not one, counted in :attr:`malformed` and skipped). The keys listed in ``recovering`` are followed by
+    :func:`recovering_subscriber`, the others by plain subscribers."""
 
     def __init__(
         self,
