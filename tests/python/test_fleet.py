@@ -408,3 +408,56 @@ def test_static_sharding(fleet_dir):
     finally:
         for p in procs:
             assert p.stop() == 0
+
+
+def test_a_peer_fleet_is_whole_at_a_new_sessions_first_query(fleet_dir):
+    """A fleet of peer-mode instances without a router (m2 and m3 connect to m1): an operator's new session that
+    connects to m1 reaches m2 and m3 only through gossip, some time after it opened. Its first `vehicles()`,
+    `instances()` and `get_all()` still hold every member's share (the client waits until every member that the
+    instances name has answered, `AttitudeClient._reach_instances`); before, a fresh session's first query held m1's
+    vehicles alone in about a quarter of the tries (`vehicles()` 14 of 48)."""
+    ports = [free_port() for _ in range(3)]
+    eps = [f"tcp/127.0.0.1:{p}" for p in ports]
+    prefix = "peerfleet"
+    config = fleet_dir / "peer.json5"
+    config.write_text(json.dumps({
+        "zenoh": {"mode": "peer", "scouting": {"multicast": {"enabled": False}}},
+        "service": {"key_prefix": prefix, "filter": {"kind": "mekf"}},
+    }))
+    procs = [
+        Proc(f"m{k + 1}", [str(BIN), "serve", "--config", str(config), "--instance", f"m{k + 1}", "--fleet",
+                           "--listen", eps[k], *(["--connect", eps[0]] if k else [])], fleet_dir)
+        for k in range(3)
+    ]
+    try:
+        c = zenoh.Config()
+        c.insert_json5("mode", '"peer"')
+        c.insert_json5("connect/endpoints", json.dumps(eps))
+        c.insert_json5("scouting/multicast/enabled", "false")
+        feeder = AttitudeClient(eps[0], prefix=prefix, config=c, routed=True)
+        wait_until(lambda: len(owners(feeder)) == 3 and all(
+            sorted(h["fleet"]["members"]) == ["m1", "m2", "m3"] for h in feeder.instances().values()),
+            30, "three members that see each other")
+        ids = [f"pv{i:02d}" for i in range(24)]
+        for i, v in enumerate(ids):
+            for ch in Scenario(seed=i, duration_s=2.0).chunks():
+                feeder.publish_gyro_batch(v, [(t, list(w)) for t, w in ch.gyro])
+                feeder.publish_vectors(v, ch.t, [{"body": list(b), "ref": list(r), "sigma": sg} for b, r, sg, _ in ch.obs])
+        feeder.flush()  # the routed batches for the standby members
+        wait_until(lambda: sum(len(v) for v in owners(feeder).values()) == len(ids)
+                   and len(feeder.get_all("attitude")) == len(ids), 20, "every vehicle tracked")
+        shares = {k: len(v) for k, v in owners(feeder).items()}
+        assert len(shares) == 3 and all(n > 0 for n in shares.values()), shares  # every member has some
+        feeder.close()
+        for _ in range(8):
+            for ask, want in ((lambda op: [r["vehicle"] for r in op.vehicles()], ids),
+                              (lambda op: sorted(op.instances()), ["m1", "m2", "m3"]),
+                              (lambda op: sorted(op.get_all("attitude")), ids)):
+                op = AttitudeClient(eps[0], prefix=prefix)
+                try:
+                    assert ask(op) == want
+                finally:
+                    op.close()
+    finally:
+        for p in procs:
+            assert p.stop() == 0, p.log()[-3000:]

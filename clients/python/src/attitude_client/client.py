@@ -600,11 +600,13 @@ class AttitudeClient:
         return self._vehicle_query(vehicle, "state", timeout)
 
     def get_all(self, kind: str = "attitude", timeout: float | None = None, errors: bool = False) -> dict:
-        """``P/*/<kind>``: ``{vehicle: reply}`` for every vehicle that has an estimate. One get, no retry:
-        ``{}`` when no vehicle has an estimate (or no service is reachable). With ``errors=True``, error
+        """``P/*/<kind>``: ``{vehicle: reply}`` for every vehicle that has an estimate. One get, no retry, once every
+        member of a fleet answers (``_reach_instances``): ``{}`` when no vehicle has an estimate (or no service is
+        reachable). With ``errors=True``, error
         replies that name a vehicle are included as :class:`ServiceError` values; otherwise they are skipped."""
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+        self._reach_instances(time.monotonic() + (self.timeout if timeout is None else float(timeout)))
         out: dict[str, Any] = {}
         for key, ok, payload in self.query(f"*/{kind}", timeout=timeout):
             if ok:
@@ -650,13 +652,56 @@ class AttitudeClient:
         """``P/@/vehicles``: one row per known vehicle (``vehicle``, ``state``, ``filter``, ``fiducial``, ``t``,
         ``received``, ``processed``, ``rejected``, ``estimates``). In a fleet every instance answers with the
         vehicles it owns: the rows of all of them, sorted by vehicle."""
-        rows = [row for reply in self._call_all(f"{self.prefix}/@/vehicles", timeout=timeout) for row in reply]
+        deadline = time.monotonic() + (self.timeout if timeout is None else float(timeout))
+        instances = self._reach_instances(deadline)
+        while True:
+            replies = self._call_all(f"{self.prefix}/@/vehicles", timeout=max(deadline - time.monotonic(), 0.05))
+            if len(replies) >= len(instances) or time.monotonic() >= deadline:
+                break
+            time.sleep(0.02)
+        rows = [row for reply in replies for row in reply]
         return sorted(rows, key=lambda r: r["vehicle"])
 
     def instances(self, timeout: float | None = None) -> dict[str, dict]:
         """``P/@/instance/*/health``: ``{instance name: its health}``, one entry per running instance (its
         ``fleet`` object says which vehicles pattern it serves, its members and how many vehicles it owns)."""
-        return {h["fleet"]["instance"]: h for h in self._call_all(f"{self.prefix}/@/instance/*/health", timeout=timeout)}
+        deadline = time.monotonic() + (self.timeout if timeout is None else float(timeout))
+        instances = self._reach_instances(deadline)
+        if instances:
+            return instances
+        key = f"{self.prefix}/@/instance/*/health"
+        return {h["fleet"]["instance"]: h for h in self._call_all(key, timeout=max(deadline - time.monotonic(), 0.05))}
+
+    def _reach_instances(self, deadline: float, patience: float = 0.25) -> dict[str, dict]:
+        """``{instance: health}`` once every instance that any instance names as a fleet member answers
+        ``P/@/instance/*/health``, or what answered by ``deadline`` (with a warning naming the missing).
+
+        Between peers (a fleet of peer-mode instances, no router), this session reaches the members other than the
+        one it connects to through gossip, some time after it opened (tens of ms here, more on a loaded machine):
+        until then they answer no query, and a query of the whole fleet would return part of it, silently (measured:
+        a fresh session's ``vehicles()`` in a fleet of three held one member's vehicles in a quarter of the tries).
+        Once a member has answered, its queryables are known to this session. Nobody answering within ``patience``
+        (no service yet, or an access-control policy that keeps this session from the health keys) is no reason to
+        wait: the caller's query goes on as before."""
+        key = f"{self.prefix}/@/instance/*/health"
+        started = time.monotonic()
+        while True:
+            healths: dict[str, dict] = {}
+            for reply in self._get(key, None, max(deadline - time.monotonic(), 0.05)):
+                if reply.ok is not None:
+                    h = json.loads(reply.ok.payload.to_bytes())
+                    name = (h.get("fleet") or {}).get("instance")
+                    if name:
+                        healths[name] = h
+            named = {m for h in healths.values() for m in (h["fleet"].get("members") or [])}
+            if healths and named <= healths.keys():
+                return healths
+            now = time.monotonic()
+            if now >= deadline or (not healths and now - started >= patience):
+                if healths:
+                    log.warning("instances %s of the fleet did not answer in time", sorted(named - healths.keys()))
+                return healths
+            time.sleep(0.02)
 
     def health(self, timeout: float | None = None) -> dict:
         """``P/@/health``: service counters (``received``, ``processed``, ``estimates_published``,
