@@ -606,9 +606,10 @@ class AttitudeClient:
         replies that name a vehicle are included as :class:`ServiceError` values; otherwise they are skipped."""
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
-        self._reach_instances(time.monotonic() + (self.timeout if timeout is None else float(timeout)))
+        deadline = time.monotonic() + (self.timeout if timeout is None else float(timeout))
+        self._reach_instances(deadline)
         out: dict[str, Any] = {}
-        for key, ok, payload in self.query(f"*/{kind}", timeout=timeout):
+        for key, ok, payload in self.query(f"*/{kind}", timeout=max(deadline - time.monotonic(), 0.05)):
             if ok:
                 vehicle = key[len(self.prefix) + 1 :].split("/", 1)[0]
                 out[vehicle] = json.loads(payload)
