@@ -37,7 +37,7 @@ import tempfile
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-from fleet_common import cpu_s, free_port, zenohd  # noqa: E402 (scripts/ on sys.path: this script's folder)
+from fleet_common import cpu_s, free_port, thread_cpu_s, zenohd  # noqa: E402 (scripts/ on sys.path: this script's folder)
 
 
 def config_text(filter_spec: str, client: bool) -> str:
@@ -139,6 +139,7 @@ def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_e
         # Declarations settle, and the takeovers of the start are over (their grace: 2 s).
         time.sleep(3.0)
         before = {name: cpu_s(member_pid(p)) for name, p, _ in procs}
+        threads_before = {name: thread_cpu_s(member_pid(p)) for name, p, _ in procs if name != "router"}
         cmd = ["nice", "-n", "-19", args.lab, "loadgen", "--vehicles", str(args.vehicles), "--rate", str(args.rate)]
         cmd += ["--duration", str(args.duration), "--json"]
         for p in [router] if router else [f"tcp/127.0.0.1:{p}" for p in ports]:
@@ -153,6 +154,13 @@ def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_e
         err = lg.stderr.read().decode()
         wall = time.monotonic() - t0
         after = {name: cpu_s(member_pid(p)) for name, p, _ in procs}
+        threads = {}
+        for name, p, _ in procs:
+            if name == "router":
+                continue
+            b = threads_before[name]
+            for t, v in thread_cpu_s(member_pid(p)).items():
+                threads[t] = threads.get(t, 0.0) + v - b.get(t, 0.0)
         if os.waitstatus_to_exitcode(status) != 0:
             raise SystemExit(f"loadgen failed: {err[-2000:]}")
         report = json.loads(out.strip().splitlines()[-1])
@@ -162,6 +170,7 @@ def run_one(args, n: int, workdir: pathlib.Path, config: pathlib.Path, loadgen_e
             "cpu": cpu,
             "router_cpu": after["router"] - before["router"] if router else None,
             "sum": sum(cpu.values()),
+            "threads": threads,
             "loadgen_cpu": usage.ru_utime + usage.ru_stime,
             "wall_s": wall,
             "report": report,
@@ -196,6 +205,11 @@ def main() -> None:
         "--router",
         action="store_true",
         help="a zenohd router in the middle (members and loadgen its clients), as config/fleet/instance.json5; its CPU is shown apart",
+    )
+    ap.add_argument(
+        "--threads",
+        action="store_true",
+        help="after each run, the members' CPU by thread name (summed over the members), beside the lone instance's",
     )
     ap.add_argument(
         "--routed",
@@ -235,6 +249,16 @@ def main() -> None:
                 f"{rep_['lost']:>5} {rep_['p50_us'] / 1e3:>7.1f} {rep_['p99_us'] / 1e3:>7.1f}",
                 flush=True,
             )
+            if args.threads:
+                base = next(x for x in runs if x["repeat"] == rep and x["n"] == 1)["threads"] if lone else {}
+                names = sorted(set(r["threads"]) | set(base), key=lambda t: -r["threads"].get(t, 0.0))
+                print("      threads (CPU s, summed over the members" + ("; the lone instance's beside)" if n > 1 and base else ")"))
+                for t in names:
+                    v = r["threads"].get(t, 0.0)
+                    if v < 0.005 and base.get(t, 0.0) < 0.005:
+                        continue
+                    other = f"  {base.get(t, 0.0):7.2f}" if n > 1 and base else ""
+                    print(f"        {t:<24} {v:7.2f}{other}", flush=True)
     print("\n# summary over the repeats: median (min-max)")
     print(f"{'N':>2} {'sum CPU s':>22} {'x lone':>20} {'largest member share':>22}")
     for n in members:
