@@ -89,8 +89,14 @@ pub trait Hooks: Send + Sync {
     /// worker thread, before the estimate is put.
     fn on_estimate(&self, _vehicle: &str, _estimate: &EstimateMsg, _bytes: Option<&[u8]>) {}
 
-    /// The housekeeping thread's tick (every 10 ms), after the reorder windows' ticks are queued.
+    /// The housekeeping thread's tick (every 10 ms while a reorder window holds samples, else at
+    /// most every [`IDLE_TICK_S`] or [`Hooks::period_s`]), after the reorder windows' ticks are queued.
     fn housekeeping(&self, _engine: &Engine) {}
+
+    /// The longest `housekeeping` may wait between two calls, s.
+    fn period_s(&self) -> f64 {
+        f64::INFINITY
+    }
 
     /// At shutdown, once every inbox is drained, before the last checkpoints.
     fn on_shutdown(&self, _engine: &Engine) {}
@@ -146,6 +152,8 @@ pub struct Engine {
     /// Vehicles whose reorder windows hold samples: the housekeeping thread looks for them among all
     /// (a cache miss per vehicle, every 10 ms) only while there are any.
     holding: AtomicUsize,
+    /// The housekeeping thread's stop and nudge.
+    alarm: Alarm,
     /// `None` tells a worker to stop.
     work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
     sink: Sink,
@@ -169,34 +177,70 @@ pub struct EngineThreads {
     dispatcher: std::thread::JoinHandle<()>,
     workers: Vec<std::thread::JoinHandle<()>>,
     housekeeping: std::thread::JoinHandle<()>,
-    stop_housekeeping: Arc<Stop>,
     engine: Arc<Engine>,
 }
 
-/// A stop signal that a thread waits on between its rounds. (Not a channel: crossbeam's receive
-/// with a timeout spins and yields the core several times before it sleeps; under load, where other
-/// threads are runnable, each yield is a task switch, and the housekeeping thread's hundred waits a
-/// second were 8.6% of a fleet member's CPU samples under the MEKF load, 2.4% with this wait.)
+/// What the housekeeping thread waits on between its ticks: the stop, and a nudge when a reorder
+/// window starts holding samples while it dozes. (Not a crossbeam channel: its receive with a timeout
+/// spins and yields the core several times before it sleeps; under load, where other threads are
+/// runnable, each yield is a task switch, and the thread's hundred waits a second were 8.6% of a
+/// fleet member's CPU samples under the MEKF load, 2.4% with a plain wait.)
 #[derive(Default)]
-struct Stop {
-    stopped: Mutex<bool>,
+struct Alarm {
+    state: Mutex<AlarmState>,
     signal: std::sync::Condvar,
+    /// Set (under the lock) while the thread takes a long nap: only then does a nudge wake it.
+    dozing: std::sync::atomic::AtomicBool,
 }
 
-impl Stop {
+#[derive(Default)]
+struct AlarmState {
+    stopped: bool,
+    nudged: bool,
+}
+
+impl Alarm {
     fn stop(&self) {
-        *self.stopped.lock().unwrap_or_else(|e| e.into_inner()) = true;
+        self.state.lock().unwrap_or_else(|e| e.into_inner()).stopped = true;
         self.signal.notify_all();
     }
 
-    /// Waits up to `timeout`; whether the stop came.
-    fn wait(&self, timeout: std::time::Duration) -> bool {
-        let stopped = self.stopped.lock().unwrap_or_else(|e| e.into_inner());
-        let (stopped, _) = self
+    /// A reorder window began to hold samples: wakes the thread if it dozes.
+    fn nudge(&self) {
+        if self.dozing.load(Ordering::SeqCst) {
+            self.state.lock().unwrap_or_else(|e| e.into_inner()).nudged = true;
+            self.signal.notify_all();
+        }
+    }
+
+    /// Waits `tick`, or `nap` while `idle()` holds once the thread dozes (a nudge ends the nap);
+    /// whether the stop came.
+    fn wait(
+        &self,
+        tick: std::time::Duration,
+        nap: std::time::Duration,
+        idle: impl Fn() -> bool,
+    ) -> bool {
+        let state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let timeout = if nap > tick {
+            // (Dozing is set before `idle` is looked at, and `holding_began` counts before it looks
+            // at dozing: either the count is seen here or the nudge comes.)
+            self.dozing.store(true, Ordering::SeqCst);
+            if idle() {
+                nap
+            } else {
+                tick
+            }
+        } else {
+            tick
+        };
+        let (mut state, _) = self
             .signal
-            .wait_timeout_while(stopped, timeout, |stopped| !*stopped)
+            .wait_timeout_while(state, timeout, |s| !s.stopped && !s.nudged)
             .unwrap_or_else(|e| e.into_inner());
-        *stopped
+        self.dozing.store(false, Ordering::SeqCst);
+        state.nudged = false;
+        state.stopped
     }
 }
 
@@ -206,7 +250,7 @@ impl EngineThreads {
     /// and writes a last checkpoint of every vehicle that changed (samples still in a reorder window
     /// are part of it).
     pub fn shutdown(self) {
-        self.stop_housekeeping.stop();
+        self.engine.alarm.stop();
         let _ = self.housekeeping.join();
         let _ = self.ingest.send(None);
         let _ = self.dispatcher.join();
@@ -229,6 +273,10 @@ impl EngineThreads {
 
 /// How often the housekeeping thread releases reorder windows by wall time, s.
 const TICK_S: f64 = 0.01;
+/// Its tick while no window holds samples (its hooks and checkpoints may ask for less), s.
+const IDLE_TICK_S: f64 = 0.1;
+/// How long it keeps the short tick after a window held samples, s.
+const BUSY_S: f64 = 1.0;
 
 /// Capacity of the channel between the subscriber callbacks and the dispatcher.
 pub const INGEST_CAPACITY: usize = 1 << 16;
@@ -269,6 +317,7 @@ impl Engine {
             started: Instant::now(),
             vehicles: RwLock::new(HashMap::new()),
             holding: AtomicUsize::new(0),
+            alarm: Alarm::default(),
             work_tx,
             sink,
             outlets,
@@ -300,13 +349,11 @@ impl Engine {
                     .expect("spawn a worker thread")
             })
             .collect();
-        let stop_housekeeping = Arc::new(Stop::default());
         let housekeeping = {
             let engine = engine.clone();
-            let stop = stop_housekeeping.clone();
             std::thread::Builder::new()
                 .name("attitude-housekeeping".into())
-                .spawn(move || engine.housekeeping(&stop))
+                .spawn(move || engine.housekeeping())
                 .expect("spawn the housekeeping thread")
         };
         Ok((
@@ -317,7 +364,6 @@ impl Engine {
                 dispatcher,
                 workers,
                 housekeeping,
-                stop_housekeeping,
                 engine,
             },
         ))
@@ -374,16 +420,31 @@ impl Engine {
     }
 
     /// Ticks the reorder windows that hold samples, and checkpoints every interval, until stopped.
-    fn housekeeping(&self, stop: &Stop) {
+    fn housekeeping(&self) {
         let interval = self.config.persistence.checkpoint_interval_s;
         let mut next_checkpoint = self.now_s() + interval;
         let tick = std::time::Duration::from_secs_f64(TICK_S);
+        // (While no window holds samples the thread dozes: ten wake-ups a second instead of a
+        // hundred. It keeps its 10 ms tick for BUSY_S after one held any, so that a vehicle whose
+        // windows hold now and then nudges it once, not each time.)
+        let nap = std::time::Duration::from_secs_f64(
+            IDLE_TICK_S
+                .min(self.hooks.period_s())
+                .min(interval)
+                .max(TICK_S),
+        );
+        let mut busy_until = f64::NEG_INFINITY;
         loop {
-            if stop.wait(tick) {
+            let idle = || self.holding.load(Ordering::SeqCst) == 0;
+            let dozing = self.now_s() >= busy_until;
+            if self.alarm.wait(tick, if dozing { nap } else { tick }, idle) {
                 return;
             }
-            // (Every 10 ms: only the vehicles that hold samples, neither sorted nor all cloned, and
-            // none looked at while none holds any.)
+            if !idle() {
+                busy_until = self.now_s() + BUSY_S;
+            }
+            // (Only the vehicles that hold samples, neither sorted nor all cloned, and none looked
+            // at while none holds any.)
             let holding: Vec<Arc<Vehicle>> = if self.holding.load(Ordering::Relaxed) == 0 {
                 Vec::new()
             } else {
@@ -459,7 +520,9 @@ impl Engine {
     }
 
     fn holding_began(&self) {
-        self.holding.fetch_add(1, Ordering::Relaxed);
+        if self.holding.fetch_add(1, Ordering::SeqCst) == 0 {
+            self.alarm.nudge();
+        }
     }
 
     fn holding_stopped(&self) {

@@ -128,6 +128,16 @@ impl Member {
 
     /// The housekeeping's share (every tick): the batches of estimates every `fleet.flush_s`, the
     /// standby data trimmed every second.
+    /// The longest `housekeeping` may wait between two calls, s: the estimates' flush (and the
+    /// standby data's trim, every second) of a dynamic member.
+    pub fn housekeeping_period_s(&self) -> f64 {
+        if self.dynamic() {
+            self.fleet.flush_s.min(1.0)
+        } else {
+            f64::INFINITY
+        }
+    }
+
     pub fn housekeeping(&self, engine: &Engine) {
         let now = engine.now_s();
         let (flush, trim) = {

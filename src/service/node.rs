@@ -143,6 +143,10 @@ impl Hooks for Features {
         self.member.housekeeping(engine);
     }
 
+    fn period_s(&self) -> f64 {
+        self.member.housekeeping_period_s()
+    }
+
     fn on_shutdown(&self, engine: &Engine) {
         self.member.flush_estimates(engine);
     }
