@@ -869,3 +869,62 @@ impl Engine {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Alarm;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    use std::time::{Duration, Instant};
+
+    /// A window that begins to hold samples while the housekeeping thread looks at the count and
+    /// dozes off is never left for the whole nap: either the thread sees the count (and waits its
+    /// short tick) or the nudge wakes it. A lost nudge would cost the nap, here 10 s.
+    #[test]
+    fn a_nudge_is_never_lost_to_a_doze() {
+        let tick = Duration::from_millis(10);
+        let nap = Duration::from_secs(10);
+        for round in 0..200u64 {
+            let alarm = Arc::new(Alarm::default());
+            let holding = Arc::new(AtomicUsize::new(0));
+            let (a, h) = (alarm.clone(), holding.clone());
+            let worker = std::thread::spawn(move || {
+                // (From at once to a little after the doze began.)
+                let until = Instant::now() + Duration::from_micros(round % 50 * 4);
+                while Instant::now() < until {
+                    std::hint::spin_loop();
+                }
+                if h.fetch_add(1, Ordering::SeqCst) == 0 {
+                    a.nudge();
+                }
+            });
+            let t = Instant::now();
+            let stopped = alarm.wait(tick, nap, || holding.load(Ordering::SeqCst) == 0);
+            let waited = t.elapsed();
+            worker.join().unwrap();
+            assert!(!stopped);
+            assert!(
+                waited < Duration::from_secs(2),
+                "round {round}: slept {waited:?}"
+            );
+        }
+    }
+
+    /// A stop ends a nap at once, and a wait after it returns at once.
+    #[test]
+    fn a_stop_ends_the_nap() {
+        let alarm = Arc::new(Alarm::default());
+        let a = alarm.clone();
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(50));
+            a.stop();
+        });
+        let t = Instant::now();
+        assert!(alarm.wait(Duration::from_millis(10), Duration::from_secs(10), || true));
+        assert!(t.elapsed() < Duration::from_secs(5));
+        stopper.join().unwrap();
+        let t = Instant::now();
+        assert!(alarm.wait(Duration::from_secs(10), Duration::from_secs(10), || true));
+        assert!(t.elapsed() < Duration::from_secs(1));
+    }
+}
