@@ -89,8 +89,9 @@ pub trait Hooks: Send + Sync {
     /// worker thread, before the estimate is put.
     fn on_estimate(&self, _vehicle: &str, _estimate: &EstimateMsg, _bytes: Option<&[u8]>) {}
 
-    /// The housekeeping thread's tick (every 10 ms while a reorder window holds samples, else at
-    /// most every [`IDLE_TICK_S`] or [`Hooks::period_s`]), after the reorder windows' ticks are queued.
+    /// The housekeeping thread's tick (every 10 ms while a reorder window holds samples, else every
+    /// 0.1 s or [`Hooks::period_s`], whichever is shorter), after the reorder windows' ticks are
+    /// queued.
     fn housekeeping(&self, _engine: &Engine) {}
 
     /// The longest `housekeeping` may wait between two calls, s.

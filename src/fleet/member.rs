@@ -126,8 +126,6 @@ impl Member {
         )
     }
 
-    /// The housekeeping's share (every tick): the batches of estimates every `fleet.flush_s`, the
-    /// standby data trimmed every second.
     /// The longest `housekeeping` may wait between two calls, s: the estimates' flush (and the
     /// standby data's trim, every second) of a dynamic member.
     pub fn housekeeping_period_s(&self) -> f64 {
@@ -138,6 +136,8 @@ impl Member {
         }
     }
 
+    /// The housekeeping's share (every tick): the batches of estimates every `fleet.flush_s`, the
+    /// standby data trimmed every second.
     pub fn housekeeping(&self, engine: &Engine) {
         let now = engine.now_s();
         let (flush, trim) = {
