@@ -280,6 +280,8 @@ impl Admission {
             }
         }
         self.any_untold.store(true, Ordering::Release);
+        // (After the flag: the dispatcher woken by this nudge finds it set.)
+        engine.nudge_dispatcher();
     }
 
     /// Bytes of the inputs waiting for the dispatcher in the share of `vehicle`, and of all.
@@ -342,5 +344,63 @@ mod tests {
         // (What a test sends straight into the channel held nothing and releases nothing.)
         a.release(Held::default());
         assert_eq!(a.pending_bytes(), 0);
+    }
+
+    /// An input refused on arrival is told at once though the dispatcher dozes (a second between
+    /// looks while idle): the refusal nudges it. Without the nudge each round would wait up to the
+    /// doze, and three rounds all inside 200 ms would be a chance of about 1 in 100.
+    #[test]
+    fn a_refusal_wakes_the_dozing_dispatcher() {
+        use crate::engine::{Engine, Inbound, Sink};
+        use crate::service::config::ServiceConfig;
+        use std::sync::{Arc, Mutex};
+        use std::time::{Duration, Instant};
+        let mut config = ServiceConfig::default();
+        config.ingest.pending_bytes_per_vehicle = 64;
+        config.ingest.wait_s = 0.0;
+        let told: Arc<Mutex<Vec<(String, Instant)>>> = Arc::default();
+        let t = told.clone();
+        let sink: Sink = Arc::new(move |key: &str, _: Vec<u8>| {
+            if key.ends_with("/rejected") {
+                t.lock().unwrap().push((key.to_string(), Instant::now()));
+            }
+        });
+        let (engine, threads) = Engine::start_alone(config, sink).unwrap();
+        // The vehicle's share is full (as while its inputs wait for the dispatcher).
+        let _full = engine
+            .admission
+            .reserve(Some(Admission::slot_of("a")), 64)
+            .unwrap();
+        for round in 0..3u64 {
+            // (Long enough for the dispatcher to be in its doze.)
+            std::thread::sleep(Duration::from_millis(50 + 70 * round));
+            let key = engine.keys.vehicle("a", crate::wire::keys::Leaf::Gyro);
+            let input = Ingest::Input {
+                inbound: Inbound {
+                    key,
+                    payload: vec![b' '; 1000],
+                },
+                sequenced: false,
+                held: Held::default(),
+            };
+            let offered = Instant::now();
+            assert!(!engine
+                .admission
+                .offer(&engine, &threads.ingest, Some("a"), input, false));
+            let deadline = offered + Duration::from_secs(3);
+            let at = loop {
+                if let Some((_, at)) = told.lock().unwrap().get(round as usize) {
+                    break *at;
+                }
+                assert!(Instant::now() < deadline, "round {round}: never told");
+                std::thread::sleep(Duration::from_millis(1));
+            };
+            let waited = at - offered;
+            assert!(
+                waited < Duration::from_millis(200),
+                "round {round}: told after {waited:?}"
+            );
+        }
+        threads.shutdown();
     }
 }

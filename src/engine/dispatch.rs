@@ -17,20 +17,24 @@ use std::sync::Arc;
 
 /// Inputs already waiting that the dispatcher queues before handing their vehicles to the workers.
 const DISPATCH_BATCH: usize = 64;
-/// The longest what the subscribers could not hand over waits to be told, s.
-const TELL_S: f64 = 0.01;
+/// The longest the dispatcher waits for inputs, tasks or a nudge before it looks again, s. What the
+/// subscribers could not hand over nudges it awake (`Engine::nudge_dispatcher`), so this is only a
+/// backstop: an idle dispatcher wakes once a second instead of a hundred times (it used to look
+/// every 10 ms, most of an idle fleet member's CPU).
+const DOZE_S: f64 = 1.0;
 
 impl Engine {
     /// The dispatcher thread: the inputs in arrival order, and the tasks it is given between them,
     /// until the ingest channel says stop. Between them it tells what the subscribers could not hand
-    /// over (`Engine::tell_untold`), at least every [`TELL_S`].
+    /// over (`Engine::tell_untold`), as soon as a nudge says there is some.
     pub(super) fn dispatcher(
         &self,
         ingest: crossbeam_channel::Receiver<Option<Ingest>>,
         tasks: crossbeam_channel::Receiver<Task>,
+        nudge: crossbeam_channel::Receiver<()>,
     ) {
         let (mut decoded, mut touched) = (Vec::new(), Vec::new());
-        let tell = std::time::Duration::from_secs_f64(TELL_S);
+        let doze = std::time::Duration::from_secs_f64(DOZE_S);
         loop {
             self.tell_untold();
             crossbeam_channel::select! {
@@ -63,7 +67,8 @@ impl Engine {
                         task(self);
                     }
                 }
-                default(tell) => {}
+                recv(nudge) -> _ => {}
+                default(doze) => {}
             }
         }
     }

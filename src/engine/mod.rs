@@ -155,6 +155,9 @@ pub struct Engine {
     holding: AtomicUsize,
     /// The housekeeping thread's stop and nudge.
     alarm: Alarm,
+    /// Wakes the dispatcher from its doze when something it must tell is kept (bounded to one: a
+    /// nudge already pending is enough).
+    dispatcher_nudge: crossbeam_channel::Sender<()>,
     /// `None` tells a worker to stop.
     work_tx: crossbeam_channel::Sender<Option<Arc<Vehicle>>>,
     sink: Sink,
@@ -307,6 +310,7 @@ impl Engine {
         let (work_tx, work_rx) = crossbeam_channel::unbounded::<Option<Arc<Vehicle>>>();
         let (ingest_tx, ingest_rx) = crossbeam_channel::bounded::<Option<Ingest>>(INGEST_CAPACITY);
         let (tasks_tx, tasks_rx) = crossbeam_channel::unbounded::<Task>();
+        let (nudge_tx, nudge_rx) = crossbeam_channel::bounded::<()>(1);
         let workers = config.workers.max(1);
         let keys = Keys::new(&config.key_prefix).with_vehicles(&config.fleet.vehicles);
         let admission = Admission::new(&config.ingest);
@@ -319,6 +323,7 @@ impl Engine {
             vehicles: RwLock::new(HashMap::new()),
             holding: AtomicUsize::new(0),
             alarm: Alarm::default(),
+            dispatcher_nudge: nudge_tx,
             work_tx,
             sink,
             outlets,
@@ -331,7 +336,7 @@ impl Engine {
             let engine = engine.clone();
             std::thread::Builder::new()
                 .name("attitude-dispatch".into())
-                .spawn(move || engine.dispatcher(ingest_rx, tasks_rx))
+                .spawn(move || engine.dispatcher(ingest_rx, tasks_rx, nudge_rx))
                 .expect("spawn the dispatcher thread")
         };
         let workers = (0..workers)
@@ -524,6 +529,11 @@ impl Engine {
         if self.holding.fetch_add(1, Ordering::SeqCst) == 0 {
             self.alarm.nudge();
         }
+    }
+
+    /// Wakes the dispatcher to tell what was kept untold (`Admission::keep_untold`).
+    pub(super) fn nudge_dispatcher(&self) {
+        let _ = self.dispatcher_nudge.try_send(());
     }
 
     fn holding_stopped(&self) {
