@@ -4,7 +4,7 @@ config/imu.json5), scored beside VQF on the very same altered samples (`attitude
 
 Each alteration keeps the truth; what changes is what the estimator sees: another rate (25, 40, 50, 100 Hz and
 1 kHz, the gyro's integral kept), irregular intervals (±50% at 100 Hz), held samples (30% of the samples repeat the previous
-reading), a gyro clipped at 4 rad/s (inferred from the clipped output: no range is configured), a start in motion
+reading), a gyro clipped at 4 and at 6 rad/s (inferred from the clipped output: no range is configured), a start in motion
 (no opening rest: alignment, bias and field learned on the move), a magnetometer in nT instead of µT, a
 magnetometer 10 and 30 times slower than the gyro whose driver repeats its last reading in between, and five
 holes of 0.15 s in the motion filled in on the line between the real samples on both sides (what a converter that
@@ -48,6 +48,7 @@ ALTERATIONS = {
     "jitter": dict(rate=100.0, jitter=0.5),
     "hold": dict(hold=0.3),
     "clip4": dict(clip=4.0),
+    "clip6": dict(clip=6.0),
     "motion": dict(start_in_motion=True),
     "nT": dict(mag_scale=1000.0),
     "mag10": dict(mag_every=10),
@@ -69,7 +70,8 @@ ALTERATIONS = {
 #: | r1000  | 0.86 / 0.29 | 0.995 / 0.998 | 0.998 / 0.998 | 1.65 / 1.45 |
 #: | jitter | 0.16 / 0.12 | 0.964 / 0.998 | 0.986 / 0.999 | 1.64 / 0.95 |
 #: | hold   | 0.30 / 0.28 | 1.000 / 1.000 | 1.000 / 1.000 | 0.17 / 0.70 |
-#: | clip4  | 1.38 / 0.83 | 0.998 / 1.000 | 0.959 / 1.000 | 0.14 / 0.05 |
+#: | clip4  | 1.08 / 0.75 | 0.998 / 1.000 | 1.000 / 1.000 | 0.19 / 0.07 |
+#: | clip6  | 1.32 / 0.28 | 0.998 / 0.998 | 1.000 / 1.000 | 0.04 / 1.26 |
 #: | motion | 0.53 / 0.32 | 1.000 / 1.000 | 1.000 / 1.000 | 0.25 / 0.26 |
 #: | nT     | 0.83 / 0.28 | 0.998 / 0.998 | 1.000 / 1.000 | 1.31 / 1.26 |
 #: | mag10  | 0.77 / 0.22 | 0.998 / 0.998 | 1.000 / 1.000 | 1.31 / 1.26 |
@@ -113,6 +115,9 @@ ALTERATIONS = {
 #: from) the tilt was inside its 99% ellipse 88% of the time (median NEES 1.91), because the unlearnt bias turns the
 #: gyro frame the accelerometer's low-pass lives in; now 100% (median NEES 0.30: cautious while the bias is learned).
 #: Before the saturation term was widened (saturation_factor 0.25 → 1) the clipped excerpt 16 had 71% inside.
+#: The saturation term was spread over every axis until 2026-12-02; it is now about the saturated axes alone
+#: (`GyroChannel::saturation_variance`): clip4 was 1.38 / 0.83 (its bound 1.4, now 1.15) and clip6 1.37 / 0.28, with
+#: the same honesty.
 BOUNDS = {
     "r25": (1.45, 0.97, 0.98, (0.4, 0.7)),
     "r40": (1.3, 0.99, 0.99, (0.35, 0.75)),
@@ -121,7 +126,8 @@ BOUNDS = {
     "r1000": (0.95, 0.99, 0.99, (1.2, 2.0)),
     "jitter": (0.25, 0.955, 0.985, (0.8, 1.8)),
     "hold": (0.4, 0.99, 0.99, (0.12, 0.9)),
-    "clip4": (1.4, 0.99, 0.95, (0.03, 0.2)),
+    "clip4": (1.15, 0.99, 0.99, (0.03, 0.2)),
+    "clip6": (1.4, 0.99, 0.99, (0.02, 1.5)),
     "motion": (0.65, 0.99, 0.99, (0.2, 0.35)),
     "nT": (0.95, 0.99, 0.99, (1.0, 1.6)),
     "mag10": (0.9, 0.99, 0.99, (1.0, 1.6)),
@@ -246,15 +252,36 @@ def ours_qpf(altered):
     return {r["trial"]: r for r in json.loads(run.stdout)}
 
 
-@pytest.mark.parametrize("alteration", ["r25", "r40", "r50"])
-def test_the_particle_filter_at_low_rates_beside_vqf(altered, ours_qpf, alteration):
+#: The particle filter with a clipped gyro (`qpf:average`, as above). What a saturated sample hides was spread over
+#: every axis: the cloud's heading spread over the circle in excerpt 16's saturated swings and its average went
+#: anywhere, 50.5° and 45.4° of total error (1.94× and 8.45× VQF's) at 4 and 6 rad/s where the MEKF had 36.0° and
+#: 7.4°. About the saturated axes alone (`GyroChannel::saturation_variance`) it is 27.1° and 7.0° (1.04× and 1.30×);
+#: excerpt 34 0.71× and 0.24×.
+QPF_CLIP_BOUND = 1.45
+
+
+#: The particle filter's bounds by alteration: total / VQF, and the tilt inside its 99% ellipse.
+QPF_BOUNDS = {
+    "r25": (QPF_RATE_BOUND, 0.96),
+    "r40": (QPF_RATE_BOUND, 0.96),
+    "r50": (QPF_RATE_BOUND, 0.96),
+    "clip4": (QPF_CLIP_BOUND, 0.99),
+    "clip6": (QPF_CLIP_BOUND, 0.99),
+}
+
+
+@pytest.mark.parametrize("alteration", sorted(QPF_BOUNDS))
+def test_the_particle_filter_beside_vqf(altered, ours_qpf, alteration):
     _, vqf = altered
+    factor, tilt_min = QPF_BOUNDS[alteration]
     for excerpt in EXCERPTS:
         name = f"{excerpt[:2]}_{alteration}"
         r, v = ours_qpf[name], vqf[name]
         assert not r["rejected"], (name, r["rejected"])
-        assert r["total_rmse_deg"] <= QPF_RATE_BOUND * v["total_rmse_deg"], (name, r["total_rmse_deg"], v)
-        assert r["tilt_in99"] >= 0.96, (name, r)
+        if alteration.startswith("clip") and excerpt.startswith("16"):  # (its rate reaches 10 rad/s; 34's 5.2)
+            assert r["imu"]["gyro_saturated"] > 0, (name, r["imu"])
+        assert r["total_rmse_deg"] <= factor * v["total_rmse_deg"], (name, r["total_rmse_deg"], v)
+        assert r["tilt_in99"] >= tilt_min, (name, r)
 
 
 def test_an_altered_recording_through_the_service(altered, ours, tmp_path):

@@ -562,6 +562,9 @@ impl Ahrs {
         // The rate over (t_prev, t]: held from t_prev, then the filter moves to t, with what the
         // sample may hide beside the gyro model (the rate's change, saturation).
         let hidden = self.gyro.step(&gyro_config, &s.gyr_rad_s, own);
+        let saturation = self
+            .gyro
+            .saturation_variance(&gyro_config, &s.gyr_rad_s, own);
         // A sample on the line through the two before it: the run of such samples is a gap that
         // someone filled in (`Interpolation`). What it hides grows as a gap's would over the run's
         // time, in the filter and in the gyro frame (as across a gap).
@@ -598,7 +601,14 @@ impl Ahrs {
             Some(r) if own > 0.0 => s.gyr_rad_s + coning + r / own,
             _ => s.gyr_rad_s + coning,
         };
-        filter.gyro_interval_with(t_from, &rate, s.t_s, hidden)?;
+        // (What saturation hides is about the saturated axes alone: apart from the rest.)
+        match saturation {
+            Some(v) => {
+                filter.gyro_interval_with(t_from, &rate, s.t_s, (hidden - v.max()).max(0.0))?;
+                filter.inflate_attitude(&Matrix3::from_diagonal(&v))?;
+            }
+            None => filter.gyro_interval_with(t_from, &rate, s.t_s, hidden)?,
+        }
         let at_rest = self.counts.at_rest;
         // Bias at rest.
         self.since_bias_s += dt;

@@ -14,7 +14,8 @@
 //!   seen, as a clipped sensor's output does) only says the rate was at least the range. The rotation
 //!   it hides grows with every saturated sample in a row: the `n`-th adds variance so that the run's
 //!   1σ is `n · saturation_factor · range · Δt` (the excess is the same sign all along a run, so it
-//!   grows linearly, not as a random walk), and the accelerometer and magnetometer then pull the
+//!   grows linearly, not as a random walk), about the saturated axes alone (the others are measured;
+//!   [`GyroChannel::saturation_variance`]), and the accelerometer and magnetometer then pull the
 //!   estimate back at once.
 //! * **Gaps.** An interval longer than [`GAP_INTERVALS`] usual ones (a lost batch, a stalled link,
 //!   a sensor that skipped) is a gap ([`GyroChannel::gap`]). The body's rate is modelled as it has
@@ -224,6 +225,33 @@ impl GyroChannel {
         }
     }
 
+    /// The part of what [`GyroChannel::step`] just returned for sample `gyr` over `dt_s` that its
+    /// saturation hides, per body axis (rad²): only the saturated axes' rates are unknown beyond
+    /// the range, so the rotation they hide is about those axes alone. `None` when the sample was
+    /// not saturated. (The filter takes it as an attitude inflation about those axes; spread over
+    /// every axis it also spread the heading, and a particle filter's cloud then lost it.)
+    pub fn saturation_variance(
+        &self,
+        c: &GyroConfig,
+        gyr: &Vector3<f64>,
+        dt_s: f64,
+    ) -> Option<Vector3<f64>> {
+        if self.run == 0 {
+            return None;
+        }
+        let range = self.range(c);
+        let n = f64::from(self.run);
+        let step = c.saturation_factor * range * dt_s.max(0.0);
+        let var = (2.0 * n - 1.0) * step * step;
+        Some(gyr.map(|w| {
+            if w.abs() >= SATURATION_FRACTION * range {
+                var
+            } else {
+                0.0
+            }
+        }))
+    }
+
     /// Takes sample `gyr` over an interval of `dt_s`; returns the attitude variance per axis (rad²)
     /// it adds beside the filter's gyro model.
     pub fn step(&mut self, c: &GyroConfig, gyr: &Vector3<f64>, dt_s: f64) -> f64 {
@@ -365,6 +393,40 @@ mod tests {
         assert_eq!(g.saturated, 6);
         assert_eq!(g.step(&c, &w, dt) > 0.0, true);
         assert_eq!(g.run, 0);
+    }
+
+    /// What saturation hides is about the saturated axes alone, and it is the saturation's share of
+    /// what `step` returned: a run on x, then on x and z (the n-th sample of a run `(2n − 1) step²`).
+    #[test]
+    fn saturation_hides_a_rotation_about_the_saturated_axes() {
+        let c = GyroConfig {
+            range_rad_s: 4.0,
+            ..GyroConfig::default()
+        };
+        let mut g = GyroChannel::default();
+        let dt = 0.01;
+        let w = Vector3::new(0.3, -0.2, 0.1);
+        g.step(&c, &w, dt);
+        assert_eq!(g.saturation_variance(&c, &w, dt), None);
+        let step2 = (1.0 * 4.0 * dt) * (1.0 * 4.0 * dt);
+        let mut prev = w;
+        for (n, sat) in [
+            (1.0, Vector3::new(4.0, 0.5, 0.1)),
+            (2.0, Vector3::new(4.0, 0.5, 0.1)),
+            (3.0, Vector3::new(-4.0, 0.5, 3.95)),
+        ] {
+            let total = g.step(&c, &sat, dt);
+            let v = g.saturation_variance(&c, &sat, dt).unwrap();
+            let var = (2.0 * n - 1.0) * step2;
+            assert!((v.x - var).abs() < 1e-15 && v.y == 0.0, "{v}");
+            assert_eq!(v.z > 0.0, sat.z.abs() >= SATURATION_FRACTION * 4.0);
+            // The rest of `step`'s variance is the rate's change.
+            let change = (c.change_factor * (sat - prev).norm() * dt).powi(2);
+            assert!((total - v.max() - change).abs() < 1e-15, "{total} {v}");
+            prev = sat;
+        }
+        g.step(&c, &w, dt);
+        assert_eq!(g.saturation_variance(&c, &w, dt), None);
     }
 
     /// A reading repeated bit for bit (a driver that holds its last one) hides the rate's change: it
