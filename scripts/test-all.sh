@@ -5,7 +5,8 @@
 #      all in the release profile (statistical tests are Monte-Carlo runs; one build serves all, the
 #      release binary included);
 #   3. the black-box Python suite (eclipse-zenoh 1.10.2 in .venv, created and filled from PyPI) against
-#      the release binaries (attitude-service, and attitude-lab for the studies and benches).
+#      the release binaries (attitude-service, and attitude-lab for the studies and benches);
+#   4. the API documentation built with warnings denied (every intra-doc link resolves).
 # Needs a Rust toolchain, a C toolchain and python3 (cmake and libclang for the `dds` feature come from
 # scripts/install-build-deps.sh). Installs Python packages into .venv in the project, and the zenoh
 # router zenohd 1.10.2 once into ~/.cache/attitude-service (scripts/ensure-zenohd.sh; ZENOHD_CACHE moves it).
@@ -31,3 +32,6 @@ test -x target/release/attitude-lab
 
 echo "== python black-box tests"
 bash scripts/python-tests.sh
+
+echo "== cargo doc, warnings denied"
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked --workspace --features attitude-service/dds

@@ -20,7 +20,7 @@
 //!   samples stamped in one order and sent in the other would be lost without a word.
 //!
 //! A callback never decodes: it hands the raw sample to the engine's ingest channel through
-//! [`Admission::offer`], within its vehicle's share. Only the plain subscribers' callbacks may wait for
+//! `Admission::offer`, within its vehicle's share. Only the plain subscribers' callbacks may wait for
 //! room (holding zenoh's receiving thread for that link: back-pressure on the sender, whose `Block`
 //! puts then wait, and one callback at a time so that another thread receives the rest): zenoh-ext
 //! calls an AdvancedSubscriber's callback under a lock that every vehicle of the key shares, so a wait

@@ -49,7 +49,7 @@ pub struct SimulateOptions {
     /// who knows roughly where the vehicle points); without it the service initialises itself.
     pub reset: bool,
     /// Inputs on their routed keys, and batched for the routes' standby members
-    /// ([`super::routed`]).
+    /// (`super::routed`).
     pub routed: bool,
     /// How the inputs on their plain keys are put ([`super::publish`]: advanced publishers by default).
     pub publishing: Publishing,

@@ -329,7 +329,7 @@ pub fn decode_batch<T: DeserializeOwned + Scanned>(
 /// an item of the wrong shape), then the first item `convert` refuses, named by its index in a batch
 /// of more than one. On a fault `out` is left as it was.
 ///
-/// The payload is read by the fast path ([`scan_batch`]) and, where that gives up, by serde from the
+/// The payload is read by the fast path (`scan_batch`) and, where that gives up, by serde from the
 /// start: the same messages either way. So `convert` may see an item twice (once by each reader, the
 /// first value discarded): it must do nothing but convert.
 pub fn decode_batch_into<T: DeserializeOwned + Scanned, M>(

@@ -7,7 +7,7 @@
 //! * [`Xoshiro256PlusPlus`]: the generator of the particle filter and the simulator (Blackman & Vigna),
 //!   bit for bit the one of the `rand_xoshiro` crate (pinned by a test against it), with its state
 //!   readable and settable so that a checkpoint can save and restore it without serde in the core;
-//! * [`normal`]: fast standard-normal draws for the particle filter (a Ziggurat), one generator at a
+//! * `normal`: fast standard-normal draws for the particle filter (a Ziggurat), one generator at a
 //!   time or eight side by side ([`Lanes`]) for vectorised kernels.
 
 mod normal;

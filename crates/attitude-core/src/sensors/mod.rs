@@ -50,12 +50,12 @@ pub enum Aspect {
     /// Heading only about the reference-frame axis `up` (unit): the angle, about `up`, between the
     /// horizontal part (perpendicular to `up`) of `reference` and that of the measurement rotated into
     /// the reference frame. Its 1σ is `sigma / ‖horizontal part of reference‖` rad. The filters never
-    /// tilt the estimate with it (see [`imu`]); its bias correction acts about the vertical only.
+    /// tilt the estimate with it (see `imu`); its bias correction acts about the vertical only.
     Heading(Vector3<f64>),
     /// The direction of `up` (a gravity observation, `reference` ∥ `up`): the likelihood of the full
     /// direction (which says nothing about the rotation about `up`), but the Kalman filters turn the
     /// estimate about horizontal axes only and leave the gyro bias along the vertical alone, so that
-    /// an acceleration mistaken for gravity never moves the heading or its bias (see [`imu`]).
+    /// an acceleration mistaken for gravity never moves the heading or its bias (see `imu`).
     Tilt(Vector3<f64>),
 }
 

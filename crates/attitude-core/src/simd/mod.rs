@@ -1,7 +1,7 @@
 //! Kernels compiled once per instruction set and chosen at run time, and the pieces they share.
 //!
-//! A kernel is written once, generic over [`V8`] (eight `f64` lanes): [`F8`] plain arrays, [`Y8`]
-//! two AVX2 registers, [`Z8`] one AVX-512 register. The [`kernel!`] macro compiles the body for each,
+//! A kernel is written once, generic over [`V8`] (eight `f64` lanes): [`F8`] plain arrays, `Y8`
+//! two AVX2 registers, `Z8` one AVX-512 register. The `kernel!` macro compiles the body for each,
 //! inside a function with that instruction set enabled, and calls the one [`Isa::active`] names.
 //! Every operation is a correctly rounded IEEE one (add, sub, mul, div, compare, select, bit
 //! moves): no FMA anywhere (Rust never contracts `a * b + c`, and no fused intrinsic is used), no

@@ -45,9 +45,9 @@ pub struct LoadgenArgs {
     /// 1 s after the run and not counted, has the last ones answered.
     #[arg(long, requires = "imu")]
     capped: bool,
-    /// Send every input on its routed key P/V/<leaf>/<r>, and batched for the routes' standby members
-    /// on P/@/standby/<r>/inputs (a dynamic fleet's inputs then reach a route's owner and standby
-    /// members only; a single instance takes them too). Default: the plain keys P/V/<leaf>.
+    /// Send every input on its routed key `P/V/<leaf>/<r>`, and batched for the routes' standby members
+    /// on `P/@/standby/<r>/inputs` (a dynamic fleet's inputs then reach a route's owner and standby
+    /// members only; a single instance takes them too). Default: the plain keys `P/V/<leaf>`.
     #[arg(long)]
     routed: bool,
     /// Send each vehicle's messages at its own phase of the period (vehicle i at i/n of it), as

@@ -108,7 +108,7 @@ impl Alignment {
 
 /// The alignment of an estimator's output to the truth over the movement samples. `R` starts from the
 /// relative rotations alone (a hand–eye problem: `q_est,i⁻¹·q_est,j = R·(q_true,i⁻¹·q_true,j)·R⁻¹`, so
-/// `R` turns the truth's rotation vectors into the estimate's; [`body_start`]), then alternately the
+/// `R` turns the truth's rotation vectors into the estimate's; `body_start`), then alternately the
 /// weighted quaternion average of `L = q_truth·R⁻¹·q_est⁻¹` with `R` held and of
 /// `R = q_est⁻¹·L⁻¹·q_truth` with `L` held, until neither moves by more than 1e-9 rad (at most 50
 /// rounds). (Alternating from `R = 1` alone can stop far off when the frames differ by a half turn,

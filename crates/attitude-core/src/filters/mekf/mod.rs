@@ -91,7 +91,7 @@ fn finish(p: Cov, c: kernels::Correction) -> ScalarUpdate {
 }
 
 /// One Kalman update with `H = [[b̂×], 0]`, `R = σ² I`, equal to the Joseph form
-/// `P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ` (computed as two scalar updates, [`kernels`]). `innovation`
+/// `P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ` (computed as two scalar updates, `kernels`). `innovation`
 /// may be `None` when only the covariance is wanted (the Cramér–Rao recursion).
 pub fn joseph_update(
     p: &Matrix6<f64>,

@@ -64,7 +64,7 @@ pub fn set_max_threads(n: usize) {
 }
 
 /// The threads a pass over `n` particles uses when the filter does not say: every core (or
-/// [`set_max_threads`]) from [`PARALLEL_FROM`] particles on, else one.
+/// [`set_max_threads`]) from `PARALLEL_FROM` particles on, else one.
 pub fn auto_threads(n: usize) -> usize {
     static CORES: OnceLock<usize> = OnceLock::new();
     if n < PARALLEL_FROM {

@@ -120,7 +120,7 @@ pub struct FieldChannel {
     /// Whether the reference has been confirmed by rotation: a hard-iron fit over enough rotation
     /// found the field it describes, with the offset in use. Until then the reference is the reading
     /// of one place and attitude, which a magnet on the body or a disturbance at the start may have
-    /// made; a well-determined fit may then replace it ([`FieldChannel::judge_fit`]).
+    /// made; a well-determined fit may then replace it (`FieldChannel::judge_fit`).
     pub confirmed: bool,
 }
 

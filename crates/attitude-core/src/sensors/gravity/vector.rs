@@ -21,7 +21,7 @@ pub struct GravityModel {
 }
 
 /// The state of [`GravityModel::lowpass`]: the time, the filtered measurement in the body frame of
-/// that time, and the estimate after that time's update (`posterior`, which [`SensorState::settle`]
+/// that time, and the estimate after that time's update (`posterior`, which `SensorState::settle`
 /// records).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LowpassState {
@@ -47,7 +47,7 @@ impl GravityModel {
     /// gyro (VQF's accelerometer filter, Laidig & Seel 2023): accelerations of a vehicle that moves
     /// back and forth average out, gravity does not, and the filter's own corrections never feed back
     /// into the measurement. Returns `body` unchanged when `lowpass_s` is 0, and restarts after a time
-    /// reversal or a non-finite value. [`SensorState::settle`] must record the posterior after each set.
+    /// reversal or a non-finite value. `SensorState::settle` must record the posterior after each set.
     pub fn lowpass(
         &self,
         state: &mut LowpassState,
