@@ -156,9 +156,12 @@ const CLOUD_PAD: [f64; 7] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
 
 kernel! {
     /// One block of the exact discrete gyro model: `βᵢ' = φ βᵢ + σ_u N`,
-    /// `θᵢ = (ω̃ − ½(βᵢ + βᵢ') − σ_w N) Δt`, `qᵢ ← δq(θᵢ) ⊗ qᵢ`. Each group of 64 particles draws 48
-    /// rows of normals; particle `8g + l` of the group takes lane `l` of rows `6g..6g + 6`
-    /// (`N_u`, `N_v` of x, then y, then z).
+    /// `θᵢ = (ω̃ − ½(βᵢ + βᵢ') − σ_w N) Δt`, `qᵢ ← δq(θᵢ) ⊗ qᵢ`. Each group of 64 particles draws 24
+    /// rows of normals and takes them twice, the second time negated (antithetic pairs): particle
+    /// `8g + l` of the group takes lane `l` of rows `6g..6g + 6` (`N_u`, `N_v` of x, then y, then z),
+    /// particle `8g + l + 32` the same rows negated. A pair's noise cancels in the cloud's mean, so
+    /// the mean moves by the model alone, not by the draw's sampling error (which, under weak
+    /// heading readings, the seed moved by tenths of a degree), and half the normals are drawn.
     pub(super) fn propagate<V>(
         key: u64,
         block: u64,
@@ -174,13 +177,19 @@ kernel! {
         let z = ziggurat();
         let mut lanes = Lanes::keyed(key, block);
         let mut normals = [[0.0; LANES]; 6 * GROUP];
-        let mut words = [[0u64; LANES]; 6 * GROUP];
+        let mut words = [[0u64; LANES]; 3 * GROUP];
         let limit = V::splat(SERIES_ANGLE_RAD * SERIES_ANGLE_RAD);
         let n = qx.len();
         let mut start = 0;
         while start < n {
             let end = (start + GROUP * LANES).min(n);
-            z.fill::<V>(&mut lanes, &mut normals, &mut words);
+            let (drawn, mirrored) = normals.split_at_mut(3 * GROUP);
+            z.fill::<V>(&mut lanes, drawn, &mut words);
+            for (m, d) in mirrored.iter_mut().zip(drawn.iter()) {
+                for l in 0..LANES {
+                    m[l] = -d[l];
+                }
+            }
             let (gx, gy, gz, gw) = (&mut qx[start..], &mut qy[start..], &mut qz[start..], &mut qw[start..]);
             let (hx, hy, hz) = (&mut bx[start..], &mut by[start..], &mut bz[start..]);
             each8!(V, end - start, [], [], [gx, gy, gz, gw, hx, hy, hz], CLOUD_PAD, |g, _x, c| {
@@ -508,8 +517,9 @@ pub(super) struct Regularisation<'a> {
 
 kernel! {
     /// One block of the regulariser: the new particles' local states into `x` (six columns), from
-    /// the resampled sources `idx`; returns their sums (for the mean-preserving shift). Normals as in
-    /// [`propagate`]: particle `8g + l` of a group of 64 takes lane `l` of rows `6g..6g + 6`.
+    /// the resampled sources `idx`; returns their sums (for the mean-preserving shift). Normals laid out
+    /// as in [`propagate`], but all 48 rows drawn: particle `8g + l` of a group of 64 takes lane `l` of
+    /// rows `6g..6g + 6`.
     pub(super) fn regularise<V>(
         key: u64,
         block: u64,
