@@ -159,9 +159,8 @@ kernel! {
     /// `θᵢ = (ω̃ − ½(βᵢ + βᵢ') − σ_w N) Δt`, `qᵢ ← δq(θᵢ) ⊗ qᵢ`. Each group of 64 particles draws 24
     /// rows of normals and takes them twice, the second time negated (antithetic pairs): particle
     /// `8g + l` of the group takes lane `l` of rows `6g..6g + 6` (`N_u`, `N_v` of x, then y, then z),
-    /// particle `8g + l + 32` the same rows negated. A pair's noise cancels in the cloud's mean, so
-    /// the mean moves by the model alone, not by the draw's sampling error (which, under weak
-    /// heading readings, the seed moved by tenths of a degree), and half the normals are drawn.
+    /// particle `8g + l + 32` the same rows negated. Each particle still follows the model; a pair's
+    /// noise cancels in the cloud's mean (to first order), and half the normals are drawn.
     pub(super) fn propagate<V>(
         key: u64,
         block: u64,
@@ -186,9 +185,7 @@ kernel! {
             let (drawn, mirrored) = normals.split_at_mut(3 * GROUP);
             z.fill::<V>(&mut lanes, drawn, &mut words);
             for (m, d) in mirrored.iter_mut().zip(drawn.iter()) {
-                for l in 0..LANES {
-                    m[l] = -d[l];
-                }
+                *m = d.map(|x| -x);
             }
             let (gx, gy, gz, gw) = (&mut qx[start..], &mut qy[start..], &mut qz[start..], &mut qw[start..]);
             let (hx, hy, hz) = (&mut bx[start..], &mut by[start..], &mut bz[start..]);
